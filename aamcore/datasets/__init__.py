@@ -1,0 +1,24 @@
+"""Readers for annotated face datasets.
+
+- :func:`read_asf`: AAM-API ``.asf`` shape files (IMM Frontal, 73 points).
+- :func:`read_pts`: 300-W ``.pts`` files (LFPW, 68 points).
+- :func:`load_annotated_folder`: every annotated image of a folder as
+  :class:`FaceSample` objects, with the files that could not be read listed
+  apart rather than stopping the load.
+"""
+
+from aamcore.datasets.asf import AsfShape, read_asf
+from aamcore.datasets.folder import AnnotatedSet, load_annotated_folder
+from aamcore.datasets.pts import read_pts
+from aamcore.datasets.sample import DatasetError, FaceSample, read_image
+
+__all__ = [
+    "AnnotatedSet",
+    "AsfShape",
+    "DatasetError",
+    "FaceSample",
+    "load_annotated_folder",
+    "read_asf",
+    "read_image",
+    "read_pts",
+]

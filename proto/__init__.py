@@ -1,0 +1,1 @@
+"""The aamtrack message contract: msgpack messages and Zenoh key expressions."""

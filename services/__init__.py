@@ -1,0 +1,1 @@
+"""aamtrack services: one process per pipeline stage, plus the command-line tool."""
