@@ -25,3 +25,29 @@ def imm_dir(data_dir: Path) -> Path:
 @pytest.fixture(scope="session")
 def lfpw_dir(data_dir: Path) -> Path:
     return data_dir / "lfpw" / "trainset"
+
+
+@pytest.fixture(scope="session")
+def cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A model cache for this test session, outside the repository."""
+    import os
+
+    path = tmp_path_factory.mktemp("aamtrack-cache")
+    os.environ["AAMTRACK_CACHE"] = str(path)
+    return path
+
+
+@pytest.fixture(scope="session")
+def imm_set(imm_dir: Path):
+    from aamcore.datasets import load_annotated_folder
+
+    return load_annotated_folder(imm_dir)
+
+
+@pytest.fixture(scope="session")
+def imm_model(imm_set):
+    """A small colour AAM trained on IMM subjects 01-09 (10-12 held out)."""
+    from aamcore.training import TrainConfig, train_aam
+
+    train = [s for s in imm_set.samples if int(s.subject) <= 9]
+    return train_aam(train, imm_set.scheme, TrainConfig(n_pixels=4000))

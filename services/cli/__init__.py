@@ -13,7 +13,10 @@ import importlib
 import logging
 import sys
 
-COMMAND_MODULES: tuple[str, ...] = ()
+COMMAND_MODULES: tuple[str, ...] = (
+    "services.cli.train_cmd",
+    "services.cli.model_cmd",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,96 @@
+"""``aamtrack model show|modes|reconstruct``: look at a trained model."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import cv2
+
+from aamcore.datasets import read_asf, read_image, read_pts
+from aamcore.model_file import load_model, read_header
+from aamcore.visualise import modes_figure, reconstruction_figure
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("model", help="inspect a trained model")
+    msub = p.add_subparsers(dest="model_command", required=True, metavar="ACTION")
+    show = msub.add_parser("show", help="print a model's summary")
+    show.add_argument("file", type=Path)
+    show.set_defaults(func=run_show)
+    modes = msub.add_parser("modes", help="render the +-3 sd variation of the first modes")
+    modes.add_argument("file", type=Path)
+    modes.add_argument("--out", type=Path, required=True, help="PNG to write")
+    modes.add_argument("--modes", type=int, default=3, help="modes per model (default 3)")
+    modes.set_defaults(func=run_modes)
+    rec = msub.add_parser("reconstruct", help="show an image beside its model reconstruction")
+    rec.add_argument("file", type=Path)
+    rec.add_argument("image", type=Path)
+    rec.add_argument("landmarks", type=Path, help=".pts or .asf file")
+    rec.add_argument("--out", type=Path, required=True, help="PNG to write")
+    rec.set_defaults(func=run_reconstruct)
+
+
+def print_summary(header: dict[str, Any], path: Path) -> None:
+    """Print the modes, variance and training facts of a model header."""
+    modes, kept = header["modes"], header["variance_kept"]
+    summary = header.get("summary", {})
+    print(f"model {path}")
+    print(
+        f"  format version {header['format_version']}, scheme {header['scheme']['name']} "
+        f"({header['scheme']['n_points']} points)"
+    )
+    print(
+        f"  reference frame {header['reference']['size'][1]}x{header['reference']['size'][0]}"
+        f", {header['reference']['pixels']} pixels, "
+        f"{'colour' if header['channels'] == 3 else 'grey'}"
+        f"{', equalised' if header['equalise'] else ''}"
+    )
+    print(f"  {'model':<10}{'modes':>7}{'variance':>10}")
+    for name in ("shape", "texture", "combined"):
+        print(f"  {name:<10}{modes[name]:>7}{kept[name]:>10.1%}")
+    if summary:
+        print(
+            f"  trained on {summary.get('images')} images "
+            f"({summary.get('subjects', 0)} subjects) from {summary.get('source')}, "
+            f"{len(summary.get('skipped', []))} skipped, in {summary.get('train_seconds')} s"
+        )
+    for name, info in header.get("attachments", {}).items():
+        print(f"  attachment {name}: {info}")
+
+
+def run_show(args: argparse.Namespace) -> int:
+    print_summary(read_header(args.file), args.file)
+    return 0
+
+
+def run_modes(args: argparse.Namespace) -> int:
+    figure = modes_figure(load_model(args.file), args.modes)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(args.out), figure)
+    print(f"wrote {args.out}")
+    return 0
+
+
+def load_landmarks(path: Path, image_size: tuple[int, int]) -> Any:
+    """Landmarks (N, 2) in pixels from a ``.pts`` or ``.asf`` file."""
+    if path.suffix == ".asf":
+        return read_asf(path).pixels(*image_size)
+    return read_pts(path)
+
+
+def run_reconstruct(args: argparse.Namespace) -> int:
+    aam = load_model(args.file)
+    image = read_image(args.image)
+    points = load_landmarks(args.landmarks, (image.shape[1], image.shape[0]))
+    if len(points) != aam.scheme.n_points:
+        raise ValueError(
+            f"{args.landmarks}: {len(points)} points, the model's scheme "
+            f"{aam.scheme.name} has {aam.scheme.n_points}"
+        )
+    figure = reconstruction_figure(aam, image, points)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(args.out), figure)
+    print(f"wrote {args.out}")
+    return 0

@@ -1,0 +1,77 @@
+"""``aamtrack train``: build a model from an annotated dataset."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from tqdm import tqdm
+
+from aamcore.config import cache_dir, resolve_dataset
+from aamcore.datasets import load_annotated_folder
+from aamcore.model_cache import cache_key
+from aamcore.model_file import read_header, save_model
+from aamcore.training import TrainConfig, train_aam
+from services.cli.model_cmd import print_summary
+
+
+def add_train_options(parser: argparse.ArgumentParser) -> None:
+    """Options shared by every command that trains a model."""
+    parser.add_argument("--shape-variance", type=float, default=0.95)
+    parser.add_argument("--texture-variance", type=float, default=0.95)
+    parser.add_argument("--combined-variance", type=float, default=0.95)
+    parser.add_argument(
+        "--pixels",
+        type=int,
+        default=10_000,
+        help="approximate pixels inside the reference frame (default 10000)",
+    )
+    parser.add_argument("--grey", action="store_true", help="grey texture instead of colour")
+    parser.add_argument(
+        "--equalise", action="store_true", help="histogram-equalise the face region per channel"
+    )
+
+
+def config_from(args: argparse.Namespace) -> TrainConfig:
+    """The :class:`TrainConfig` the options describe."""
+    return TrainConfig(
+        shape_variance=args.shape_variance,
+        texture_variance=args.texture_variance,
+        combined_variance=args.combined_variance,
+        n_pixels=args.pixels,
+        colour=not args.grey,
+        equalise=args.equalise,
+    )
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("train", help="train an AAM from annotated faces")
+    p.add_argument(
+        "--data",
+        required=True,
+        help="imm_frontal, lfpw, or a folder of .asf/.pts files with images",
+    )
+    p.add_argument("--out", type=Path, help="model file (default: in the cache folder)")
+    p.add_argument("--limit", type=int, help="use at most this many images")
+    add_train_options(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    config = config_from(args)
+    folder = resolve_dataset(args.data)
+    data = load_annotated_folder(folder, limit=args.limit)
+    for error in data.errors:
+        print(f"skipped: {error}", file=sys.stderr)
+    print(
+        f"{len(data.samples)} images of {folder} ({data.scheme.name}), {len(data.errors)} skipped",
+        file=sys.stderr,
+    )
+    out = args.out or cache_dir() / f"{folder.name}-{cache_key(str(folder), config)}.npz"
+    bar = lambda items: tqdm(items, desc="sampling textures", unit="img", file=sys.stderr)  # noqa: E731
+    aam = train_aam(data.samples, data.scheme, config, progress=bar, source=str(folder))
+    aam.summary["skipped"] = data.errors + aam.summary["skipped"]
+    path = save_model(aam, out)
+    print_summary(read_header(path), path)
+    return 0
