@@ -107,8 +107,8 @@ def to_grey_uint8(image: np.ndarray) -> np.ndarray:
         or a float image holding NaN or infinity.
     """
     image = _check_image(image)
-    if image.dtype == np.float16:
-        image = image.astype(np.float32)
+    if np.issubdtype(image.dtype, np.floating) and image.dtype != np.float32:
+        image = image.astype(np.float32)  # cvtColor takes 8U, 16U and 32F only
     if image.ndim == 3:
         code = cv2.COLOR_BGR2GRAY if image.shape[2] == 3 else cv2.COLOR_BGRA2GRAY
         image = cv2.cvtColor(np.ascontiguousarray(image), code)
@@ -130,6 +130,8 @@ class HaarFaceDetector:
         Overlapping raw detections needed to keep a box (>= 0).
     min_size : (int, int)
         Smallest face (width, height) searched, in pixels of the input frame.
+        The small scales cost the most; a face under 60 px is too small for
+        an AAM fit anyway.
     max_side : int, optional
         If given, frames whose longer side exceeds it are downscaled to it
         before detection (for speed) and the boxes are mapped back.
@@ -156,7 +158,7 @@ class HaarFaceDetector:
         cascade: str | Path = DEFAULT_CASCADE,
         scale_factor: float = 1.2,
         min_neighbors: int = 3,
-        min_size: tuple[int, int] = (30, 30),
+        min_size: tuple[int, int] = (60, 60),
         max_side: int | None = None,
         equalize: bool = False,
     ) -> None:

@@ -81,7 +81,7 @@ def save_ced_png(
     ax.set_xlabel(xlabel)
     ax.set_ylabel("fraction of images")
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="lower right")
+    ax.legend(loc="lower right", fontsize="small")
     if title:
         ax.set_title(title)
     fig.tight_layout()
