@@ -1,0 +1,109 @@
+"""Encode messages to msgpack payloads and decode payloads, validating everything.
+
+A payload is the msgpack map ``{"header": {...}, "body": {...}}``; see
+``proto/README.md`` for the full specification.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import msgpack
+
+from proto.fields import check_keys, type_name
+from proto.header import Header, read_kind
+from proto.limits import (
+    MAX_IMAGE_BYTES,
+    MAX_IMAGE_PAYLOAD,
+    MAX_LIST_LEN,
+    MAX_MAP_LEN,
+    MAX_SMALL_PAYLOAD,
+    MAX_STR_LEN,
+    ProtoError,
+)
+from proto.messages import MESSAGE_TYPES, Message
+
+IMAGE_KINDS = ("frame", "overlay")
+TOP_KEYS = ("header", "body")
+
+
+def payload_limit(kind: str | None) -> int:
+    """Largest payload, in bytes, of a message of ``kind`` (``None``: of any kind)."""
+    return MAX_IMAGE_PAYLOAD if kind is None or kind in IMAGE_KINDS else MAX_SMALL_PAYLOAD
+
+
+def encode(msg: Message) -> bytes:
+    """Encode a message as a msgpack payload.
+
+    A valid message always fits its kind's payload limit: the field limits
+    keep the largest message of each kind below it (the tests check this).
+    """
+    wire = {"header": msg.header.to_dict(msg.KIND), "body": msg.to_dict()}
+    return msgpack.packb(wire, use_bin_type=True)
+
+
+def _unpack(payload: bytes | bytearray | memoryview, limit: int) -> Any:
+    try:
+        return msgpack.unpackb(
+            payload,
+            raw=False,
+            strict_map_key=True,
+            use_list=True,
+            max_bin_len=min(limit, MAX_IMAGE_BYTES),
+            max_str_len=MAX_STR_LEN,
+            max_array_len=MAX_LIST_LEN,
+            max_map_len=MAX_MAP_LEN,
+            max_ext_len=0,
+        )
+    except (ValueError, TypeError, msgpack.UnpackException) as exc:
+        # ValueError covers truncation, extra data, bad UTF-8, limits and bad map keys.
+        raise ProtoError(f"payload is not valid msgpack within the limits: {exc}") from None
+
+
+def decode(payload: bytes | bytearray | memoryview, expected_kind: str | None = None) -> Message:
+    """Decode and validate a payload.
+
+    Parameters
+    ----------
+    payload : bytes-like
+        The msgpack payload, e.g. ``sample.payload.to_bytes()``.
+    expected_kind : str, optional
+        Reject any other kind (and apply its size limit before unpacking).
+
+    Returns
+    -------
+    Message
+        The message, of the class ``MESSAGE_TYPES[kind]``.
+
+    Raises
+    ------
+    ProtoError
+        With a reason naming what does not fit; never any other exception.
+    """
+    if expected_kind is not None and expected_kind not in MESSAGE_TYPES:
+        raise ProtoError(f"expected kind {expected_kind!r} is not one of {list(MESSAGE_TYPES)}")
+    if not isinstance(payload, bytes | bytearray | memoryview):
+        raise ProtoError(f"payload must be bytes, got {type_name(payload)}")
+    size = memoryview(payload).nbytes
+    limit = payload_limit(expected_kind)
+    if size == 0:
+        raise ProtoError("payload is empty")
+    if size > limit:
+        raise ProtoError(f"payload of {size} bytes exceeds the limit of {limit}")
+    obj = _unpack(payload, limit)
+    if not isinstance(obj, dict):
+        raise ProtoError(f"message: expected a map, got {type_name(obj)}")
+    if "header" not in obj:
+        raise ProtoError("message: missing field 'header'")
+    kind = read_kind(obj["header"])
+    check_keys(obj, TOP_KEYS, "message")
+    cls = MESSAGE_TYPES.get(kind)
+    if cls is None:
+        raise ProtoError(f"header.kind: {kind[:40]!r} is not one of {list(MESSAGE_TYPES)}")
+    if expected_kind is not None and kind != expected_kind:
+        raise ProtoError(f"header.kind: expected {expected_kind!r}, got {kind!r}")
+    if size > payload_limit(kind):
+        raise ProtoError(
+            f"{kind}: payload of {size} bytes exceeds the limit of {payload_limit(kind)}"
+        )
+    return cls.from_dict(obj["body"], Header.from_dict(obj["header"]))

@@ -1,0 +1,53 @@
+"""A Zenoh configuration that works in sandboxes and on real networks alike.
+
+Multicast scouting is off by default: peers find each other only through the
+explicit ``listen`` and ``connect`` endpoints, which is what works reliably in
+containers (see STACK_NOTES). A peer whose ``connect`` target is not up yet
+still opens and keeps retrying.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Sequence
+
+import zenoh
+
+MODES = ("peer", "client", "router")
+_ENDPOINT = re.compile(r"(tcp|udp|tls|quic|unixsock-stream|ws)/\S+")
+
+
+def zenoh_config(
+    mode: str = "peer",
+    listen: Sequence[str] = (),
+    connect: Sequence[str] = (),
+    multicast_scouting: bool = False,
+) -> zenoh.Config:
+    """Build a ``zenoh.Config``.
+
+    Parameters
+    ----------
+    mode : str
+        ``"peer"``, ``"client"`` or ``"router"``.
+    listen, connect : sequence of str
+        Endpoints such as ``"tcp/127.0.0.1:7447"``.
+    multicast_scouting : bool
+        Whether to discover peers by UDP multicast as well.
+
+    Raises
+    ------
+    ValueError
+        For an unknown mode or an endpoint that is not ``<protocol>/<address>``.
+    """
+    if mode not in MODES:
+        raise ValueError(f"zenoh mode {mode!r} is not one of {list(MODES)}")
+    for endpoint in (*listen, *connect):
+        if not isinstance(endpoint, str) or _ENDPOINT.fullmatch(endpoint) is None:
+            raise ValueError(f"zenoh endpoint {endpoint!r} is not like 'tcp/127.0.0.1:7447'")
+    config = zenoh.Config()
+    config.insert_json5("mode", json.dumps(mode))
+    config.insert_json5("listen/endpoints", json.dumps(list(listen)))
+    config.insert_json5("connect/endpoints", json.dumps(list(connect)))
+    config.insert_json5("scouting/multicast/enabled", json.dumps(multicast_scouting))
+    return config
