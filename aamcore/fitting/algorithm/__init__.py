@@ -1,0 +1,12 @@
+"""Optimisation families for AAM fitting, one module each.
+
+Every algorithm offers ``run(image, c0, t0) -> FitResult`` on a prepared image
+(see :meth:`aamcore.aam.AAM.prepare_image`), with all costly precomputation in
+its constructor.
+"""
+
+from aamcore.fitting.algorithm.fixed_jacobian import FixedJacobian
+from aamcore.fitting.algorithm.project_out_ic import ProjectOutInverseCompositional
+from aamcore.fitting.algorithm.supervised_descent import SupervisedDescent
+
+__all__ = ["FixedJacobian", "ProjectOutInverseCompositional", "SupervisedDescent"]

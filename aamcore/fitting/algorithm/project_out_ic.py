@@ -1,0 +1,148 @@
+"""Project-out inverse compositional fitting (Matthews & Baker 2004).
+
+The shape is ``s0 + Q q``: the mean shape plus an orthonormal basis ``Q`` of
+the four similarity directions and the shape modes. The steepest-descent
+images of the mean texture, with the texture modes projected out, and their
+Hessian are computed once; each iteration samples the image, multiplies the
+error by the precomputed ``H^-1 SD^T``, and composes the inverse increment
+with the current piecewise-affine warp. The appearance parameters of the
+result come from the final shape and texture, so the failure test of eq. 7.2
+applies as for :class:`~aamcore.fitting.algorithm.FixedJacobian`.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy import ndimage
+
+from aamcore.aam import AAM
+from aamcore.fitting.residuals import ResidualFunction, WarpFn
+from aamcore.fitting.result import FitResult, failure_reason
+from aamcore.similarity_params import apply_pose
+
+
+def shape_basis(mean: np.ndarray, modes: np.ndarray) -> np.ndarray:
+    """Orthonormal basis (2N, 4 + k) of similarity directions then shape ``modes`` (2N, k)."""
+    x, y = mean[:, 0], mean[:, 1]
+    n = len(mean)
+    similarity = np.stack(
+        [
+            mean.ravel(),
+            np.stack([-y, x], 1).ravel(),
+            np.tile([1.0, 0.0], n),
+            np.tile([0.0, 1.0], n),
+        ],
+        axis=1,
+    )
+    q, _ = np.linalg.qr(np.hstack([similarity, modes]))
+    return q
+
+
+def texture_gradient(frame_image: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Gradients (H, W, C, 2) of a frame image (H, W, C), the outside filled by nearest values."""
+    _, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
+    filled = frame_image[iy, ix]
+    gy, gx = np.gradient(filled, axis=(0, 1))
+    return np.stack([gx, gy], axis=-1)
+
+
+class ProjectOutInverseCompositional:
+    """Fit the shape by project-out inverse composition on the mean texture.
+
+    Parameters
+    ----------
+    aam : AAM
+    max_iterations : int
+    warp : callable, optional
+        Texture sampler ``warp(image, shape) -> (M, C)``.
+    """
+
+    name = "project-out-ic"
+
+    def __init__(self, aam: AAM, max_iterations: int = 30, warp: WarpFn | None = None) -> None:
+        self.aam = aam
+        self.max_iterations = max_iterations
+        self.residual = ResidualFunction(aam, warp)
+        frame = aam.frame
+        self.mean_shape = aam.shape.mean_shape
+        self.s0 = frame.vertices  # mean shape in frame pixels
+        self.Q = shape_basis(self.mean_shape, aam.shape.pca.components)
+        n_q = self.Q.shape[1]
+        Qs = self.Q.reshape(-1, 2, n_q)
+
+        channels = aam.channels
+        m = frame.n_pixels
+        a0 = aam.texture.mean.reshape(m, channels)
+        grad = texture_gradient(frame.to_image(a0), frame.mask)[frame.mask]  # (M, C, 2)
+        tri = frame.triangles[frame.pixel_triangle]  # (M, 3)
+        dwdq = np.einsum("mk,mkdq->mdq", frame.weights, Qs[tri])  # (M, 2, n_q)
+        sd = np.einsum("mcd,mdq->mcq", grad, dwdq).reshape(m * channels, n_q)
+
+        # Project out the texture modes and the normalisation directions.
+        ones = np.ones((m * channels, 1))
+        basis, _ = np.linalg.qr(
+            np.hstack([ones, aam.texture.mean[:, None], aam.texture.pca.components])
+        )
+        sd_po = sd - basis @ (basis.T @ sd)
+        hessian = sd_po.T @ sd_po
+        self.R = np.ascontiguousarray(np.linalg.solve(hessian, sd_po.T), dtype=np.float32)
+        self.a0 = aam.texture.mean.astype(np.float32)
+        self.texture_basis = np.ascontiguousarray(basis, dtype=np.float32)
+
+        # Vertex -> triangles containing it, to carry points through a warp.
+        self._vertex_triangles = [
+            np.flatnonzero(np.any(frame.triangles == v, axis=1)) for v in range(len(self.s0))
+        ]
+
+    def _affines(self, shape: np.ndarray) -> np.ndarray:
+        """Affine maps (T, 2, 3) from each frame triangle to its image triangle."""
+        tri = self.aam.frame.triangles
+        src = np.concatenate([self.s0[tri], np.ones((len(tri), 3, 1))], axis=2)  # (T, 3, 3)
+        dst = shape[tri]  # (T, 3, 2)
+        return np.transpose(np.linalg.solve(src, dst), (0, 2, 1))
+
+    def compose(self, shape: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """Image shape after composing the inverse increment ``-dq`` with the warp to ``shape``."""
+        moved = self.s0 - (self.Q @ dq).reshape(-1, 2)
+        affines = self._affines(shape)
+        out = np.empty_like(shape)
+        for v, tris in enumerate(self._vertex_triangles):
+            a = affines[tris]
+            out[v] = (a[:, :, :2] @ moved[v] + a[:, :, 2]).mean(axis=0)
+        return out
+
+    def run(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
+        """Fit from the shape of ``(c0, t0)`` on a prepared ``image``."""
+        shape_model = self.aam.shape
+        shape = self.residual.shape(c0, t0)
+        b, t = shape_model.fit_points(shape)
+        shape = apply_pose(t, shape_model.instance(b))
+        errors, seconds = [], []
+        best = (np.inf, shape, b, t)
+        iterations = 0
+        for _ in range(self.max_iterations):
+            start = time.perf_counter()
+            e = self.residual.image_texture(image, shape) - self.a0
+            e_po = e - self.texture_basis @ (self.texture_basis.T @ e)
+            error = float(e_po @ e_po) / e_po.size
+            errors.append(error)
+            if error < best[0]:
+                best = (error, shape, b, t)
+            elif error > best[0] * 1.5:
+                break
+            dq = (self.R @ e).astype(np.float64)
+            target = self.compose(shape, dq)
+            b, t = shape_model.fit_points(target, iterations=2)
+            shape = apply_pose(t, shape_model.instance(b))
+            iterations += 1
+            seconds.append(time.perf_counter() - start)
+            if np.abs(self.Q @ dq).max() < 0.02:  # under 1/50 px per point
+                break
+        error, shape, b, t = best
+        g = self.residual.image_texture(image, shape)
+        c = self.aam.combined.params(b, self.aam.texture.params(g.astype(np.float64)))
+        points = shape
+        reason = failure_reason(c, self.aam.combined.limits(3.0), points)
+        return FitResult(points, c, t, error, iterations, bool(reason), reason, seconds, errors)

@@ -1,0 +1,218 @@
+"""The fitter: a trained AAM, its update matrix and box mapping, one algorithm.
+
+:func:`prepare_fitting` adds to a freshly trained AAM what fitting needs (the
+update matrix and the box-to-shape mapping) so that both are saved in its
+model file; :class:`Fitter` then fits from a box, a start shape or previous
+parameters.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+import numpy as np
+
+from aamcore.aam import AAM
+from aamcore.datasets import FaceSample
+from aamcore.detection import HaarFaceDetector
+from aamcore.fitting.algorithm import (
+    FixedJacobian,
+    ProjectOutInverseCompositional,
+    SupervisedDescent,
+)
+from aamcore.fitting.descent_training import attach_cascade, stored_cascade, train_descent
+from aamcore.fitting.residuals import WarpFn
+from aamcore.fitting.result import FitResult
+from aamcore.fitting.update_training import (
+    PerturbationScheme,
+    attach_update,
+    stored_update,
+    train_update,
+)
+from aamcore.initialisation import (
+    BoxToShapeMapping,
+    detect_all,
+    fit_box_to_shape,
+    match_detection,
+)
+from aamcore.model_cache import cached_model
+from aamcore.training import TrainConfig
+
+ALGORITHMS = ("supervised-descent", "fixed-jacobian", "project-out-ic")
+
+
+def prepare_fitting(
+    aam: AAM,
+    samples: list[FaceSample],
+    method: str = "jacobian",
+    max_images: int | None = 60,
+    descent_stages: int = 5,
+    progress: Callable[[Iterable[FaceSample]], Iterable[FaceSample]] | None = None,
+) -> AAM:
+    """Train what fitting needs and attach it to ``aam``, to be saved with it.
+
+    That is the box-to-shape mapping (from Haar detections on ``samples``),
+    the update matrix of the fixed-Jacobian fitter (``method``, on at most
+    ``max_images`` images) and the supervised-descent cascade.
+    """
+    detector = HaarFaceDetector()
+    detections = detect_all(samples, detector)
+    mapping = fit_box_to_shape(aam.shape.mean_shape, [s.points for s in samples], detections)
+    aam.attachment_header["box_to_shape"] = mapping.to_json(include_reference=False)
+    scheme = PerturbationScheme()
+    update = train_update(aam, samples, method, scheme, max_images, progress=progress)
+    attach_update(aam, update, scheme)
+    boxes = []
+    for found, sample in zip(detections, samples, strict=True):
+        k = match_detection(found, sample.points)
+        boxes.append(None if k is None else found[k])
+    cascade = train_descent(aam, samples, boxes, mapping, stages=descent_stages)
+    attach_cascade(aam, cascade)
+    return aam
+
+
+def stored_mapping(aam: AAM) -> BoxToShapeMapping:
+    """The box-to-shape mapping stored with ``aam``."""
+    data = aam.attachment_header.get("box_to_shape")
+    if data is None:
+        raise ValueError("this model has no box-to-shape mapping: train it with `--fit`")
+    return BoxToShapeMapping.from_json(data, reference=aam.shape.mean_shape)
+
+
+class Fitter:
+    """Fit one AAM with one algorithm.
+
+    Parameters
+    ----------
+    aam : AAM
+        A model prepared by :func:`prepare_fitting`.
+    algorithm : {"supervised-descent", "fixed-jacobian", "project-out-ic"}
+    max_iterations : int, optional
+    warp : callable, optional
+        Texture sampler ``warp(image, shape) -> (M, C)``; the CPU warp by default.
+    """
+
+    def __init__(
+        self,
+        aam: AAM,
+        algorithm: str = "supervised-descent",
+        max_iterations: int | None = None,
+        warp: WarpFn | None = None,
+    ) -> None:
+        if algorithm not in ALGORITHMS:
+            raise ValueError(f"unknown fitting algorithm {algorithm!r}: choose one of {ALGORITHMS}")
+        self.aam = aam
+        self.mapping = stored_mapping(aam)
+        if algorithm == "supervised-descent":
+            self.algorithm = SupervisedDescent(aam, stored_cascade(aam), warp)
+        elif algorithm == "fixed-jacobian":
+            self.algorithm = FixedJacobian(aam, stored_update(aam), max_iterations or 20, warp)
+        else:
+            self.algorithm = ProjectOutInverseCompositional(aam, max_iterations or 30, warp)
+        self.zero = np.zeros(aam.n_appearance)
+
+    @property
+    def name(self) -> str:
+        return self.algorithm.name
+
+    def prepare(self, image: np.ndarray, shape: np.ndarray | None = None) -> np.ndarray:
+        """Convert an input image for the model (channels, equalisation near ``shape``)."""
+        return self.aam.prepare_image(image, shape)
+
+    def fit(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
+        """Fit from appearance ``c0`` and pose ``t0`` (e.g. the previous frame's fit)."""
+        start = self.aam.shape_instance(c0, t0)
+        return self.algorithm.run(self.prepare(image, start), c0, t0)
+
+    def fit_shape(self, image: np.ndarray, shape: np.ndarray) -> FitResult:
+        """Fit from the mean face placed on a start ``shape`` (N, 2)."""
+        if not np.all(np.isfinite(shape)):
+            raise ValueError("start shape has NaN or infinite coordinates")
+        _, t0 = self.aam.shape.fit_points(shape, iterations=1)
+        return self.fit(image, self.zero, t0)
+
+    def fit_box(self, image: np.ndarray, box: np.ndarray, source: str = "detector") -> FitResult:
+        """Fit from a face box ``(x, y, w, h)`` through the learned mapping."""
+        box = np.asarray(box, dtype=np.float64).reshape(4)
+        if not np.all(np.isfinite(box)) or box[2] <= 1 or box[3] <= 1:
+            raise ValueError(f"invalid face box {box.tolist()}")
+        return self.fit_shape(image, self.mapping.place(box, source))
+
+
+class Tracker:
+    """Track a face from frame to frame, re-detecting when there is none or a fit fails.
+
+    Parameters
+    ----------
+    fitter : Fitter
+    detector : HaarFaceDetector, optional
+    """
+
+    def __init__(self, fitter: Fitter, detector: HaarFaceDetector | None = None) -> None:
+        self.fitter = fitter
+        self.detector = detector or HaarFaceDetector()
+        self.last: FitResult | None = None
+        self.detections = 0
+
+    def reset(self) -> None:
+        """Forget the last fit: the next frame starts from a detection."""
+        self.last = None
+
+    def track(self, image: np.ndarray) -> FitResult | None:
+        """Fit ``image``; None when no face is found.
+
+        A failed fit from the previous frame's parameters triggers a
+        detection on the same frame (thesis section 7.2.2).
+        """
+        if self.last is not None:
+            result = self.fitter.fit(image, self.last.c, self.last.t)
+            if result.ok:
+                self.last = result
+                return result
+        self.detections += 1
+        boxes = self.detector.detect(image)
+        if len(boxes) == 0:
+            self.last = None
+            return None
+        result = self.fitter.fit_box(image, boxes[0])
+        self.last = result if result.ok else None
+        return result
+
+
+def fitting_model_path(
+    dataset: str = "lfpw",
+    config: TrainConfig | None = None,
+    max_images: int = 30,
+    limit: int | None = None,
+) -> Path:
+    """Path of a cached model ready for fitting, trained on first use.
+
+    Parameters
+    ----------
+    dataset : str
+        Dataset name or folder (``lfpw`` gives the 68-point iBUG markup that
+        the head-pose model expects).
+    config : TrainConfig, optional
+        Defaults to grey textures over about 10k reference pixels.
+    max_images : int
+        Images used to learn the update matrix.
+    limit : int, optional
+        Train on the first ``limit`` images only (small models for tests).
+    """
+    config = config or TrainConfig(colour=False, shape_variance=0.98)
+
+    def select(samples: list[FaceSample]) -> list[FaceSample]:
+        return samples[:limit] if limit else samples
+
+    def prepare(aam: AAM, samples: list[FaceSample]) -> AAM:
+        return prepare_fitting(aam, samples, max_images=max_images)
+
+    return cached_model(
+        dataset,
+        config,
+        select=select,
+        select_name=f"first {limit}" if limit else "all",
+        prepare=prepare,
+        prepare_name=f"fitting v2, {max_images} images",
+    )
