@@ -18,6 +18,7 @@ from aamcore.datasets import FaceSample
 from aamcore.detection import HaarFaceDetector
 from aamcore.fitting.algorithm import (
     FixedJacobian,
+    MultiResolution,
     ProjectOutInverseCompositional,
     SupervisedDescent,
 )
@@ -27,6 +28,7 @@ from aamcore.fitting.result import FitResult
 from aamcore.fitting.update_training import (
     PerturbationScheme,
     attach_update,
+    stored_levels,
     stored_update,
     train_update,
 )
@@ -39,7 +41,7 @@ from aamcore.initialisation import (
 from aamcore.model_cache import cached_model
 from aamcore.training import TrainConfig
 
-ALGORITHMS = ("supervised-descent", "fixed-jacobian", "project-out-ic")
+ALGORITHMS = ("supervised-descent", "fixed-jacobian", "multi-resolution", "project-out-ic")
 
 
 def prepare_fitting(
@@ -48,21 +50,26 @@ def prepare_fitting(
     method: str = "jacobian",
     max_images: int | None = 60,
     descent_stages: int = 5,
+    pyramid_levels: int = 2,
     progress: Callable[[Iterable[FaceSample]], Iterable[FaceSample]] | None = None,
 ) -> AAM:
     """Train what fitting needs and attach it to ``aam``, to be saved with it.
 
     That is the box-to-shape mapping (from Haar detections on ``samples``),
-    the update matrix of the fixed-Jacobian fitter (``method``, on at most
-    ``max_images`` images) and the supervised-descent cascade.
+    the update matrices of the fixed-Jacobian fitter (``method``, on at most
+    ``max_images`` images, one per pyramid level) and the supervised-descent
+    cascade.
     """
     detector = HaarFaceDetector()
     detections = detect_all(samples, detector)
     mapping = fit_box_to_shape(aam.shape.mean_shape, [s.points for s in samples], detections)
     aam.attachment_header["box_to_shape"] = mapping.to_json(include_reference=False)
     scheme = PerturbationScheme()
-    update = train_update(aam, samples, method, scheme, max_images, progress=progress)
-    attach_update(aam, update, scheme)
+    for level in range(pyramid_levels):
+        update = train_update(
+            aam, samples, method, scheme, max_images, level=level, progress=progress
+        )
+        attach_update(aam, update, scheme, level)
     boxes = []
     for found, sample in zip(detections, samples, strict=True):
         k = match_detection(found, sample.points)
@@ -87,7 +94,9 @@ class Fitter:
     ----------
     aam : AAM
         A model prepared by :func:`prepare_fitting`.
-    algorithm : {"supervised-descent", "fixed-jacobian", "project-out-ic"}
+    algorithm : {"supervised-descent", "fixed-jacobian", "multi-resolution", "project-out-ic"}
+        ``multi-resolution`` runs the fixed-Jacobian fitter over an image
+        pyramid, one level per stored update matrix.
     max_iterations : int, optional
     warp : callable, optional
         Texture sampler ``warp(image, shape) -> (M, C)``; the CPU warp by default.
@@ -108,6 +117,12 @@ class Fitter:
             self.algorithm = SupervisedDescent(aam, stored_cascade(aam), warp)
         elif algorithm == "fixed-jacobian":
             self.algorithm = FixedJacobian(aam, stored_update(aam), max_iterations or 20, warp)
+        elif algorithm == "multi-resolution":
+            levels = [
+                FixedJacobian(aam, stored_update(aam, level), max_iterations or 20, warp)
+                for level in range(stored_levels(aam))
+            ]
+            self.algorithm = MultiResolution(levels)
         else:
             self.algorithm = ProjectOutInverseCompositional(aam, max_iterations or 30, warp)
         self.zero = np.zeros(aam.n_appearance)
@@ -214,5 +229,5 @@ def fitting_model_path(
         select=select,
         select_name=f"first {limit}" if limit else "all",
         prepare=prepare,
-        prepare_name=f"fitting v2, {max_images} images",
+        prepare_name=f"fitting v3, {max_images} images",
     )

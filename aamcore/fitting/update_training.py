@@ -16,6 +16,7 @@ import numpy as np
 
 from aamcore.aam import AAM
 from aamcore.datasets import DatasetError, FaceSample
+from aamcore.fitting.algorithm.multi_resolution import pyramid
 from aamcore.fitting.residuals import ResidualFunction
 from aamcore.similarity_params import compose_poses
 
@@ -86,16 +87,23 @@ class UpdateMatrix:
 
 
 def perturbed_residuals(
-    aam: AAM, sample: FaceSample, displacements: np.ndarray, residual: ResidualFunction
+    aam: AAM,
+    sample: FaceSample,
+    displacements: np.ndarray,
+    residual: ResidualFunction,
+    level: int = 0,
 ) -> np.ndarray:
     """Residuals (E, M C) of one training image at each displacement (Algorithm 4).
 
     The pose displacement acts in the model frame: the perturbed shape is
-    ``T_t(T_dt(x))``, so the fitter can undo it compositionally.
+    ``T_t(T_dt(x))``, so the fitter can undo it compositionally. ``level``
+    halves the image that many times first (multi-resolution fitting).
     """
-    raw = sample.load_image()
-    c0, t0 = aam.parameters_of(raw, sample.points)
-    image = aam.prepare_image(raw, sample.points)
+    raw = pyramid(sample.load_image(), level + 1)[level]
+    factor = 0.5**level
+    points = (sample.points + 0.5) * factor - 0.5
+    c0, t0 = aam.parameters_of(raw, points)
+    image = aam.prepare_image(raw, points)
     n_c = aam.n_appearance
     out = np.empty((len(displacements), aam.texture_basis.shape[0]), dtype=np.float32)
     for j, dp in enumerate(displacements):
@@ -113,6 +121,7 @@ def train_update(
     max_images: int | None = 60,
     regression_variance: float = 0.99,
     seed: int = 0,
+    level: int = 0,
     progress: Callable[[Iterable[FaceSample]], Iterable[FaceSample]] | None = None,
 ) -> UpdateMatrix:
     """Learn the update matrix from training ``samples``.
@@ -133,6 +142,8 @@ def train_update(
         components keep.
     seed : int
         Seed of the subset choice.
+    level : int
+        Pyramid level: train on images halved ``level`` times.
     progress : callable, optional
         Wraps the image iteration, e.g. ``tqdm``.
     """
@@ -150,7 +161,7 @@ def train_update(
     used = 0
     for sample in (progress or iter)(chosen):
         try:
-            block = perturbed_residuals(aam, sample, displacements, residual)
+            block = perturbed_residuals(aam, sample, displacements, residual, level)
         except DatasetError:
             continue
         used += 1
@@ -194,10 +205,17 @@ def principal_component_regression(
     return (dp @ phi / eigenvalues) @ (phi.T @ dg.T)
 
 
-def attach_update(aam: AAM, update: UpdateMatrix, scheme: PerturbationScheme) -> AAM:
-    """Store ``update`` in ``aam``'s attachments, to be saved with the model."""
-    aam.attachments["update_R"] = update.R
-    aam.attachment_header["update"] = {
+def _update_name(level: int) -> str:
+    return "update" if level == 0 else f"update_level{level}"
+
+
+def attach_update(
+    aam: AAM, update: UpdateMatrix, scheme: PerturbationScheme, level: int = 0
+) -> AAM:
+    """Store ``update`` (for pyramid ``level``) in ``aam``'s attachments."""
+    name = _update_name(level)
+    aam.attachments[f"{name}_R"] = update.R
+    aam.attachment_header[name] = {
         "method": update.method,
         "images": update.images,
         "experiments": update.experiments,
@@ -206,18 +224,30 @@ def attach_update(aam: AAM, update: UpdateMatrix, scheme: PerturbationScheme) ->
     return aam
 
 
-def stored_update(aam: AAM) -> UpdateMatrix:
-    """The update matrix stored with ``aam``.
+def stored_levels(aam: AAM) -> int:
+    """Number of pyramid levels with a stored update matrix."""
+    level = 0
+    while f"{_update_name(level)}_R" in aam.attachments:
+        level += 1
+    return level
+
+
+def stored_update(aam: AAM, level: int = 0) -> UpdateMatrix:
+    """The update matrix stored with ``aam`` for pyramid ``level``.
 
     Raises
     ------
     ValueError
         If the model was saved without one.
     """
-    if "update_R" not in aam.attachments:
-        raise ValueError("this model has no update matrix: train it with `aamtrack train --fit`")
-    info = aam.attachment_header.get("update", {})
-    R = aam.attachments["update_R"]
+    name = _update_name(level)
+    if f"{name}_R" not in aam.attachments:
+        raise ValueError(
+            f"this model has no update matrix for pyramid level {level}: "
+            "train it with `aamtrack train --fit`"
+        )
+    info = aam.attachment_header.get(name, {})
+    R = aam.attachments[f"{name}_R"]
     expected = (aam.n_appearance + 4, aam.texture_basis.shape[0])
     if R.shape != expected:
         raise ValueError(f"stored update matrix has shape {R.shape}, the model needs {expected}")

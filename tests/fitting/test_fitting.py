@@ -19,7 +19,9 @@ def _true_pose_start(fitter, sample, dx=0.0, dy=0.0):
     return np.zeros(fitter.aam.n_appearance), t
 
 
-@pytest.mark.parametrize("algorithm", ["fixed-jacobian", "project-out-ic", "supervised-descent"])
+@pytest.mark.parametrize(
+    "algorithm", ["fixed-jacobian", "multi-resolution", "project-out-ic", "supervised-descent"]
+)
 def test_fit_from_displaced_start_on_held_out_subjects(imm_fit_model, imm_test, algorithm) -> None:
     fitter = Fitter(imm_fit_model, algorithm)
     scheme = imm_fit_model.scheme

@@ -6,7 +6,13 @@ its constructor.
 """
 
 from aamcore.fitting.algorithm.fixed_jacobian import FixedJacobian
+from aamcore.fitting.algorithm.multi_resolution import MultiResolution
 from aamcore.fitting.algorithm.project_out_ic import ProjectOutInverseCompositional
 from aamcore.fitting.algorithm.supervised_descent import SupervisedDescent
 
-__all__ = ["FixedJacobian", "ProjectOutInverseCompositional", "SupervisedDescent"]
+__all__ = [
+    "FixedJacobian",
+    "MultiResolution",
+    "ProjectOutInverseCompositional",
+    "SupervisedDescent",
+]
