@@ -1,0 +1,1 @@
+"""The fitter service: AAM fitting on video frames, with the warp on the GPU where one can run."""

@@ -1,0 +1,120 @@
+"""The GL warp thread: requests, errors, shutdown, and the CPU fallback."""
+
+from __future__ import annotations
+
+import logging
+import threading
+
+import numpy as np
+import pytest
+
+from services.fitter.warp_worker import CPUWarp, GLUnavailableError, GLWarpWorker, make_warp
+
+MEAN_DIFF = 0.5  # grey levels; see test_gl_warp.py
+
+
+@pytest.fixture(scope="module")
+def worker(imm_model):
+    with GLWarpWorker(imm_model.frame, imm_model.shape.n_points) as w:
+        yield w
+
+
+@pytest.fixture(scope="module")
+def faces(imm_set) -> list:
+    return [s for s in imm_set.samples if int(s.subject) >= 10][:3]
+
+
+def _mean_diff(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.abs(a - b).mean())
+
+
+def test_worker_serves_warps_like_the_cpu(worker: GLWarpWorker, imm_model, faces) -> None:
+    first, second = faces[0].load_image(), faces[1].load_image()
+    worker.set_frame(first)
+    for _ in range(2):  # the uploaded frame serves repeated warps
+        out = worker.warp(first, faces[0].points)
+        assert out.shape == (imm_model.frame.n_pixels, 3)
+        assert _mean_diff(out, imm_model.warp.warp(first, faces[0].points)) < MEAN_DIFF
+    # A different image is uploaded by warp itself.
+    out = worker(second, faces[1].points)
+    assert _mean_diff(out, imm_model.warp.warp(second, faces[1].points)) < MEAN_DIFF
+
+
+def test_set_frame_uploads_a_buffer_refilled_in_place(worker, imm_model, faces) -> None:
+    buffer = faces[0].load_image()
+    worker.set_frame(buffer)
+    worker.warp(buffer, faces[0].points)
+    buffer[:] = faces[2].load_image()
+    worker.set_frame(buffer)
+    out = worker.warp(buffer, faces[2].points)
+    assert _mean_diff(out, imm_model.warp.warp(buffer, faces[2].points)) < MEAN_DIFF
+
+
+def test_errors_in_the_gl_thread_reach_the_caller(worker: GLWarpWorker, imm_model, faces) -> None:
+    image = faces[0].load_image()
+    with pytest.raises(ValueError, match=r"shape must be \(73, 2\)"):
+        worker.warp(image, faces[0].points[:20])
+    with pytest.raises(ValueError, match="uint8"):
+        worker.set_frame(image.astype(np.float64))
+    assert worker.alive  # and it goes on serving
+    out = worker.warp(image, faces[0].points)
+    assert _mean_diff(out, imm_model.warp.warp(image, faces[0].points)) < MEAN_DIFF
+
+
+def test_calls_from_several_threads_are_serialised(worker, imm_model, faces) -> None:
+    images = [f.load_image() for f in faces]
+    errors: list[float] = []
+
+    def run(k: int) -> None:
+        for _ in range(10):
+            out = worker.warp(images[k], faces[k].points)
+            errors.append(_mean_diff(out, imm_model.warp.warp(images[k], faces[k].points)))
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(3)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert len(errors) == 30 and max(errors) < MEAN_DIFF
+
+
+def test_close_joins_the_thread(imm_model, faces) -> None:
+    worker = GLWarpWorker(imm_model.frame, imm_model.shape.n_points)
+    worker.ping()
+    thread = worker._thread
+    assert thread.is_alive() and not thread.daemon
+    worker.close()
+    assert not thread.is_alive() and not worker.alive
+    worker.close()  # twice is fine
+    with pytest.raises(RuntimeError, match="closed"):
+        worker.warp(faces[0].load_image(), faces[0].points)
+
+
+def test_an_unusable_backend_is_a_clear_error(imm_model) -> None:
+    with pytest.raises(GLUnavailableError, match="no-such-backend") as info:
+        GLWarpWorker(imm_model.frame, imm_model.shape.n_points, backend="no-such-backend")
+    assert info.value.__cause__ is not None
+
+
+def test_make_warp_prefers_the_gpu(imm_model, faces) -> None:
+    warp, path = make_warp(imm_model, prefer="gpu")
+    with warp:
+        assert path == "gpu" and isinstance(warp, GLWarpWorker)
+    warp, path = make_warp(imm_model, prefer="cpu")
+    assert path == "cpu" and isinstance(warp, CPUWarp)
+    image = faces[0].load_image()
+    warp.set_frame(image)
+    np.testing.assert_array_equal(
+        warp.warp(image, faces[0].points), imm_model.warp.warp(image, faces[0].points)
+    )
+    with pytest.raises(ValueError, match="prefer"):
+        make_warp(imm_model, prefer="tpu")
+
+
+def test_make_warp_falls_back_to_the_cpu(imm_model, caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.WARNING, logger="services.fitter.warp_worker")
+    for _ in range(2):
+        warp, path = make_warp(imm_model, prefer="gpu", backend="fallback-test-backend")
+        assert path == "cpu" and isinstance(warp, CPUWarp)
+    reasons = [r.getMessage() for r in caplog.records if "fallback-test-backend" in r.getMessage()]
+    assert len(reasons) == 1 and "using the CPU warp" in reasons[0]
