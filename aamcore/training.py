@@ -140,6 +140,8 @@ def train_aam(
         "source": source,
         "images": n,
         "subjects": len({s.subject for s in kept if s.subject is not None}),
+        "train_subjects": sorted({s.subject for s in kept if s.subject is not None}),
+        "train_images": [s.image_path.stem for s in kept],
         "skipped": skipped,
         "config": asdict(config),
         "train_seconds": round(time.perf_counter() - start, 3),

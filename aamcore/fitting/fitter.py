@@ -66,10 +66,13 @@ def prepare_fitting(
     aam.attachment_header["box_to_shape"] = mapping.to_json(include_reference=False)
     scheme = PerturbationScheme()
     for level in range(pyramid_levels):
+        # Coarse levels are there to bring far starts near: they learn from
+        # pose displacements twice as large per level.
+        level_scheme = scheme.widened(2.0**level)
         update = train_update(
-            aam, samples, method, scheme, max_images, level=level, progress=progress
+            aam, samples, method, level_scheme, max_images, level=level, progress=progress
         )
-        attach_update(aam, update, scheme, level)
+        attach_update(aam, update, level_scheme, level)
     boxes = []
     for found, sample in zip(detections, samples, strict=True):
         k = match_detection(found, sample.points)

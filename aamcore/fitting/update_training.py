@@ -44,6 +44,15 @@ class PerturbationScheme:
     angles_deg: tuple[float, ...] = (-10.0, -5.0, 5.0, 10.0)
     translations: tuple[float, ...] = (-0.10, -0.05, 0.05, 0.10)
 
+    def widened(self, factor: float) -> PerturbationScheme:
+        """The scheme with pose displacements ``factor`` times larger (coarse pyramid levels)."""
+        return PerturbationScheme(
+            self.appearance_sigmas,
+            tuple(float(np.exp(np.log(s) * factor)) for s in self.scales),
+            tuple(a * factor for a in self.angles_deg),
+            tuple(d * factor for d in self.translations),
+        )
+
     def displacements(self, aam: AAM) -> np.ndarray:
         """All displacement vectors ``delta_p = (delta_c, delta_t)``, shape (E, t_c + 4)."""
         n_c = aam.n_appearance

@@ -16,6 +16,8 @@ import sys
 COMMAND_MODULES: tuple[str, ...] = (
     "services.cli.train_cmd",
     "services.cli.model_cmd",
+    "services.cli.fit_cmd",
+    "services.cli.pose_cmd",
 )
 
 

@@ -9,7 +9,8 @@ from pathlib import Path
 from tqdm import tqdm
 
 from aamcore.config import cache_dir, resolve_dataset
-from aamcore.datasets import load_annotated_folder
+from aamcore.datasets import FaceSample, load_annotated_folder
+from aamcore.fitting.fitter import prepare_fitting
 from aamcore.model_cache import cache_key
 from aamcore.model_file import read_header, save_model
 from aamcore.training import TrainConfig, train_aam
@@ -54,8 +55,36 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", type=Path, help="model file (default: in the cache folder)")
     p.add_argument("--limit", type=int, help="use at most this many images")
+    p.add_argument(
+        "--hold-out-subjects",
+        default="",
+        help="comma-separated subject ids left out of training (IMM: 10,11,12)",
+    )
+    p.add_argument(
+        "--train-fraction",
+        type=float,
+        default=1.0,
+        help="train on this first fraction of the images in name order "
+        "(LFPW: 0.8; the rest is the test split)",
+    )
+    p.add_argument(
+        "--fit",
+        action="store_true",
+        help="also train what fitting needs (box mapping, update matrices, descent cascade)",
+    )
     add_train_options(p)
     p.set_defaults(func=run)
+
+
+def select_training(
+    samples: list[FaceSample], hold_out_subjects: str = "", fraction: float = 1.0
+) -> list[FaceSample]:
+    """The training samples: without the held-out subjects, the first ``fraction`` by name."""
+    held = {s.strip() for s in hold_out_subjects.split(",") if s.strip()}
+    chosen = [s for s in samples if s.subject is None or s.subject not in held]
+    if not 0 < fraction <= 1:
+        raise ValueError(f"--train-fraction {fraction} is not in (0, 1]")
+    return chosen[: max(int(round(fraction * len(chosen))), 1)]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -68,10 +97,17 @@ def run(args: argparse.Namespace) -> int:
         f"{len(data.samples)} images of {folder} ({data.scheme.name}), {len(data.errors)} skipped",
         file=sys.stderr,
     )
-    out = args.out or cache_dir() / f"{folder.name}-{cache_key(str(folder), config)}.npz"
+    samples = select_training(data.samples, args.hold_out_subjects, args.train_fraction)
+    extra = {"hold_out": args.hold_out_subjects, "fraction": args.train_fraction, "fit": args.fit}
+    out = args.out or cache_dir() / f"{folder.name}-{cache_key(str(folder), config, extra)}.npz"
     bar = lambda items: tqdm(items, desc="sampling textures", unit="img", file=sys.stderr)  # noqa: E731
-    aam = train_aam(data.samples, data.scheme, config, progress=bar, source=str(folder))
+    aam = train_aam(samples, data.scheme, config, progress=bar, source=str(folder))
     aam.summary["skipped"] = data.errors + aam.summary["skipped"]
+    if args.fit:
+        print(
+            "training the fitters (box mapping, update matrices, descent cascade)", file=sys.stderr
+        )
+        aam = prepare_fitting(aam, samples)
     path = save_model(aam, out)
     print_summary(read_header(path), path)
     return 0

@@ -1,0 +1,188 @@
+"""``aamtrack fit`` and ``aamtrack eval fit|landmarks``: fitting images and measuring it."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import asdict
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from aamcore.config import resolve_dataset
+from aamcore.datasets import load_annotated_folder, read_image
+from aamcore.detection import HaarFaceDetector
+from aamcore.fit_evaluation import (
+    STARTS,
+    failure_rates,
+    format_failure_table,
+    held_out,
+    landmark_errors,
+    monte_carlo,
+    summary,
+)
+from aamcore.fitting.fitter import ALGORITHMS, Fitter
+from aamcore.initialisation import THESIS_OFFSETS
+from aamcore.model_file import load_model
+from aamcore.plots import save_ced_png
+from aamcore.visualise import draw_shape
+from services.cli.groups import eval_group
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("fit", help="fit a model to images, writing landmarks as JSON")
+    p.add_argument("images", nargs="+", type=Path)
+    p.add_argument("--model", type=Path, required=True)
+    _algorithm_option(p)
+    p.add_argument("--draw", type=Path, help="folder for the images with the fitted mesh")
+    p.add_argument("--out", type=Path, help="JSON file (default: standard output)")
+    p.set_defaults(func=run_fit)
+
+    ev = eval_group(sub)
+    e = ev.add_parser("fit", help="Monte Carlo start displacements (thesis section 7.3)")
+    e.add_argument("--model", type=Path, required=True)
+    e.add_argument("--data", required=True, help="annotated folder or dataset name")
+    _algorithm_option(e)
+    e.add_argument("--starts", default=",".join(STARTS), help="cog, haar or both")
+    e.add_argument(
+        "--offsets",
+        default=",".join(str(o) for o in THESIS_OFFSETS),
+        help="start displacements in pixels (default: the thesis's -50..50)",
+    )
+    e.add_argument("--limit", type=int, help="at most this many held-out images")
+    e.add_argument("--ced", type=Path, help="PNG of the cumulative NME distribution")
+    e.add_argument("--json", action="store_true", help="print the results as JSON")
+    e.set_defaults(func=run_eval_fit)
+
+    lm = ev.add_parser("landmarks", help="NME of fits from the Haar start on an annotated folder")
+    lm.add_argument("--model", type=Path, required=True)
+    lm.add_argument("--data", required=True, help="annotated folder or dataset name")
+    _algorithm_option(lm)
+    lm.add_argument("--limit", type=int, help="at most this many held-out images")
+    lm.add_argument("--ced", type=Path, help="PNG of the cumulative NME distribution")
+    lm.add_argument("--json", action="store_true", help="print the results as JSON")
+    lm.set_defaults(func=run_eval_landmarks)
+
+
+def _algorithm_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--algorithm",
+        choices=ALGORITHMS,
+        default=ALGORITHMS[0],
+        help=f"fitting algorithm (default {ALGORITHMS[0]})",
+    )
+
+
+def run_fit(args: argparse.Namespace) -> int:
+    aam = load_model(args.model)
+    fitter = Fitter(aam, args.algorithm)
+    detector = HaarFaceDetector()
+    results = []
+    for path in args.images:
+        image = read_image(path)
+        boxes = detector.detect(image)
+        if len(boxes) == 0:
+            results.append({"image": str(path), "face": False})
+            continue
+        fit = fitter.fit_box(image, boxes[0])
+        results.append(
+            {
+                "image": str(path),
+                "face": True,
+                "box": boxes[0].tolist(),
+                "landmarks": np.round(fit.points, 3).tolist(),
+                "failed": fit.failed,
+                "reason": fit.reason,
+                "iterations": fit.iterations,
+                "texture_error": fit.error,
+                "scheme": aam.scheme.name,
+            }
+        )
+        if args.draw:
+            args.draw.mkdir(parents=True, exist_ok=True)
+            colour = (0, 0, 255) if fit.failed else (0, 255, 0)
+            canvas = draw_shape(image.copy(), fit.points, aam.scheme, colour)
+            cv2.imwrite(str(args.draw / f"{path.stem}_fit.png"), canvas)
+    text = json.dumps(results, indent=1)
+    if args.out:
+        args.out.write_text(text)
+    else:
+        print(text)
+    return 0
+
+
+def _test_samples(args: argparse.Namespace, aam) -> list:
+    data = load_annotated_folder(resolve_dataset(args.data))
+    if data.scheme.n_points != aam.scheme.n_points:
+        raise ValueError(
+            f"{args.data} has {data.scheme.n_points}-point annotations, the model "
+            f"{aam.scheme.n_points}"
+        )
+    samples = held_out(aam, data.samples)
+    if not samples:
+        raise ValueError(f"every image of {args.data} was used to train the model: nothing to test")
+    return samples[: args.limit] if args.limit else samples
+
+
+def run_eval_fit(args: argparse.Namespace) -> int:
+    aam = load_model(args.model)
+    fitter = Fitter(aam, args.algorithm)
+    samples = _test_samples(args, aam)
+    offsets = [float(o) for o in args.offsets.split(",") if o.strip()]
+    starts = [s.strip() for s in args.starts.split(",") if s.strip()]
+    print(
+        f"{fitter.name}: {len(samples)} held-out images x {len(offsets)} offsets x 2 axes x "
+        f"{len(starts)} starts",
+        file=sys.stderr,
+    )
+    records = monte_carlo(fitter, samples, offsets, starts)
+    rates = failure_rates(records)
+    result = {
+        "algorithm": fitter.name,
+        "images": len(samples),
+        "summary": summary(records),
+        "failure_rates": {
+            k: {a: {str(o): c for o, c in v.items()} for a, v in d.items()}
+            for k, d in rates.items()
+        },
+        "by_start": {k: summary([r for r in records if r.start == k]) for k in rates},
+    }
+    if args.ced:
+        save_ced_png({k: [r.nme for r in records if r.start == k] for k in rates}, args.ced)
+    if args.json:
+        print(json.dumps(result, indent=1))
+    else:
+        for kind in rates:
+            print(f"\nfailure rate, {kind} start (eq. 7.2: a parameter beyond 3 sd)")
+            print(format_failure_table(rates[kind], "eq72"))
+            print(f"\nfailure rate, {kind} start (NME > 0.10)")
+            print(format_failure_table(rates[kind], "nme"))
+    return 0
+
+
+def run_eval_landmarks(args: argparse.Namespace) -> int:
+    aam = load_model(args.model)
+    fitter = Fitter(aam, args.algorithm)
+    samples = _test_samples(args, aam)
+    records = landmark_errors(fitter, samples)
+    stats = summary(records)
+    result = {
+        "algorithm": fitter.name,
+        "images": len(samples),
+        **stats,
+        "fits": [asdict(r) for r in records],
+    }
+    if args.ced:
+        save_ced_png({fitter.name: [r.nme for r in records]}, args.ced)
+    if args.json:
+        print(json.dumps(result, indent=1))
+    else:
+        print(
+            f"{fitter.name} on {len(samples)} images ({stats['landmark_box_starts']} from the "
+            f"landmark box): NME mean {stats['mean']:.4f}, median {stats['median']:.4f}, "
+            f"> 0.08 {stats['failure_008']:.1%}, > 0.10 {stats['failure_010']:.1%}, "
+            f"{1000 * stats['mean_seconds']:.1f} ms per fit"
+        )
+    return 0

@@ -1,0 +1,17 @@
+"""Command groups that several command modules add to."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def eval_group(sub: argparse._SubParsersAction) -> argparse._SubParsersAction:
+    """The sub-commands of ``aamtrack eval``, creating ``eval`` if no module has yet."""
+    parser = sub.choices.get("eval")
+    if parser is None:
+        parser = sub.add_parser("eval", help="evaluate accuracy and speed against ground truth")
+        return parser.add_subparsers(dest="eval_command", required=True, metavar="WHAT")
+    for action in parser._actions:  # argparse keeps its sub-command sets only here
+        if isinstance(action, argparse._SubParsersAction):
+            return action
+    return parser.add_subparsers(dest="eval_command", required=True, metavar="WHAT")
