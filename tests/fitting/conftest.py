@@ -20,8 +20,9 @@ def imm_test(imm_set):
 @pytest.fixture(scope="session")
 def imm_fit_model_path(imm_set, imm_train, tmp_path_factory) -> Path:
     """A grey IMM model with everything fitting needs, trained on subjects 01-09."""
-    aam = train_aam(imm_train, imm_set.scheme, TrainConfig(n_pixels=6000, colour=False,
-                                                           shape_variance=0.98))
+    aam = train_aam(
+        imm_train, imm_set.scheme, TrainConfig(n_pixels=6000, colour=False, shape_variance=0.98)
+    )
     aam = prepare_fitting(aam, imm_train, max_images=25)
     return save_model(aam, tmp_path_factory.mktemp("fit") / "imm_fit.npz")
 

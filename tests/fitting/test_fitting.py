@@ -79,8 +79,11 @@ def test_no_face_and_odd_images(imm_fit_model, imm_test) -> None:
     tracker = Tracker(Fitter(imm_fit_model))
     assert tracker.track(np.full((480, 640, 3), 127, np.uint8)) is None
     image = imm_test[2].load_image()
-    for variant in (image[..., 0], np.dstack([image, np.full(image.shape[:2], 255, np.uint8)]),
-                    image.astype(np.uint16) * 257):
+    for variant in (
+        image[..., 0],
+        np.dstack([image, np.full(image.shape[:2], 255, np.uint8)]),
+        image.astype(np.uint16) * 257,
+    ):
         tracker.reset()
         result = tracker.track(variant)
         assert result is not None

@@ -1,0 +1,80 @@
+"""IMM Frontal Monte Carlo fitting benchmark, in the layout of thesis table 7.1.
+
+Run: ``.venv/bin/python bench/bench_fit_imm.py [--algorithm multi-resolution] [--folds 4]``
+
+Subjects are held out by folds (4 folds of 3 subjects by default): each fold
+trains a grey model with everything fitting needs on the other 9 subjects and
+fits the held-out subjects' images from the CoG and Haar starts displaced along
+x and along y by the thesis's offsets (-50..50 px, 800x600 images). Failure is
+counted two ways: the thesis's test (eq. 7.2, an appearance parameter beyond
+3 sd) and NME > 0.10. Target: at most 5 % at every displacement up to 40 px.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from aamcore.config import resolve_dataset
+from aamcore.datasets import load_annotated_folder
+from aamcore.fit_evaluation import failure_rates, format_failure_table, monte_carlo, summary
+from aamcore.fitting.fitter import ALGORITHMS, Fitter, prepare_fitting
+from aamcore.initialisation import THESIS_OFFSETS
+from aamcore.training import TrainConfig, train_aam
+
+
+def worst(rates: dict, key: str, limit: float = 40.0) -> float:
+    """Largest failure percentage over both axes for |offset| <= limit."""
+    return max(c[key] for axis in rates.values() for o, c in axis.items() if abs(o) <= limit)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--algorithm", choices=ALGORITHMS, default="multi-resolution")
+    parser.add_argument("--folds", type=int, default=4)
+    parser.add_argument("--offsets", default=",".join(str(o) for o in THESIS_OFFSETS))
+    args = parser.parse_args()
+    offsets = [float(o) for o in args.offsets.split(",")]
+    data = load_annotated_folder(resolve_dataset("imm_frontal"))
+    subjects = data.subjects()
+    folds = np.array_split(np.array(subjects), args.folds)
+    records = []
+    start = time.perf_counter()
+    for fold in folds:
+        held = set(fold.tolist())
+        train = [s for s in data.samples if s.subject not in held]
+        test = [s for s in data.samples if s.subject in held]
+        aam = train_aam(train, data.scheme, TrainConfig(colour=False, shape_variance=0.98))
+        aam = prepare_fitting(aam, train)
+        fitter = Fitter(aam, args.algorithm)
+        records += monte_carlo(fitter, test, offsets)
+        print(f"fold {sorted(held)}: {len(test)} images done", flush=True)
+    elapsed = time.perf_counter() - start
+    rates = failure_rates(records)
+    print(
+        f"\n{fitter.name}, {len(data.samples)} images, {args.folds} folds of held-out subjects, "
+        f"{len(records)} fits in {elapsed:.0f} s"
+    )
+    for kind in ("cog", "haar"):
+        for key, label in (("eq72", "eq. 7.2 (parameter beyond 3 sd)"), ("nme", "NME > 0.10")):
+            print(f"\nTable 7.1 layout: failure %, {kind} start, {label}")
+            print(format_failure_table(rates[kind], key))
+    stats = summary(records)
+    print(
+        f"\nall fits: NME mean {stats['mean']:.4f} median {stats['median']:.4f}, "
+        f"{1000 * stats['mean_seconds']:.1f} ms per fit, {stats['mean_iterations']:.1f} iterations"
+    )
+    print()
+    for kind in ("cog", "haar"):
+        for key, label in (("eq72", "eq. 7.2"), ("nme", "NME > 0.10")):
+            w = worst(rates[kind], key)
+            print(
+                f"{'PASS' if w <= 5.0 else 'FAIL'}: {kind} start, {label}: worst failure "
+                f"{w:.2f} % for displacements up to 40 px (target <= 5 %)"
+            )
+
+
+if __name__ == "__main__":
+    main()

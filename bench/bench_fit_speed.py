@@ -1,0 +1,101 @@
+"""Fitting speed on one core: tracking from the previous frame and starting from a Haar box.
+
+Run: ``.venv/bin/python bench/bench_fit_speed.py``
+
+Uses the stack's default model (LFPW, grey, about 10k reference pixels;
+trained and cached on first use) on the frames of ``videos/single_face.mp4``
+letterboxed to 640x480. Tracking fits each frame from the previous frame's
+fit; the Haar start fits each frame from its detection (detection timed
+apart). Targets: tracking >= 300 fits/s, from a Haar box >= 50 fits/s.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+from threadpoolctl import threadpool_limits  # noqa: E402
+
+from aamcore.config import data_root  # noqa: E402
+from aamcore.detection import HaarFaceDetector  # noqa: E402
+from aamcore.fitting.fitter import ALGORITHMS, Fitter, fitting_model_path  # noqa: E402
+from aamcore.model_file import load_model  # noqa: E402
+
+
+def video_frames(path: str, size: tuple[int, int] = (640, 480)) -> list[np.ndarray]:
+    """Frames of a video, letterboxed into ``size``."""
+    capture = cv2.VideoCapture(path)
+    frames = []
+    while True:
+        ok, frame = capture.read()
+        if not ok:
+            break
+        canvas = np.zeros((size[1], size[0], 3), np.uint8)
+        h, w = frame.shape[:2]
+        scale = min(size[0] / w, size[1] / h)
+        frame = cv2.resize(frame, (int(w * scale), int(h * scale)))
+        y, x = (size[1] - frame.shape[0]) // 2, (size[0] - frame.shape[1]) // 2
+        canvas[y : y + frame.shape[0], x : x + frame.shape[1]] = frame
+        frames.append(canvas)
+    return frames
+
+
+def rate(seconds: list[float]) -> tuple[float, float]:
+    """Fits per second (from the median) and the median in ms."""
+    median = float(np.median(seconds))
+    return 1.0 / median, 1000 * median
+
+
+def main() -> None:
+    cv2.setNumThreads(1)
+    frames = video_frames(str(data_root() / "videos" / "single_face.mp4"))
+    aam = load_model(fitting_model_path())
+    detector = HaarFaceDetector()
+    det_times, boxes = [], []
+    for frame in frames:
+        t0 = time.perf_counter()
+        found = detector.detect(frame)
+        det_times.append(time.perf_counter() - t0)
+        boxes.append(found[0] if len(found) else None)
+    print(f"{len(frames)} frames 640x480, model {aam.frame.n_pixels} px "
+          f"{'grey' if aam.channels == 1 else 'colour'}, one core")
+    print(f"Haar detection: {1000 * np.median(det_times):.1f} ms median "
+          f"({sum(b is not None for b in boxes)} of {len(frames)} frames with a face)\n")
+    print(f"{'algorithm':<44}{'track fits/s':>13}{'ms':>7}{'box fits/s':>11}{'ms':>7}"
+          f"{'iters':>6}")
+    results = {}
+    with threadpool_limits(1):
+        for name in ALGORITHMS:
+            fitter = Fitter(aam, name)
+            box_times, track_times, iterations = [], [], []
+            previous = None
+            for frame, box in zip(frames, boxes, strict=True):
+                if box is None:
+                    continue
+                t0 = time.perf_counter()
+                fit = fitter.fit_box(frame, box)
+                box_times.append(time.perf_counter() - t0)
+                if previous is not None:
+                    t0 = time.perf_counter()
+                    fit = fitter.fit(frame, previous.c, previous.t)
+                    track_times.append(time.perf_counter() - t0)
+                iterations.append(fit.iterations)
+                previous = fit
+            track, track_ms = rate(track_times)
+            box_rate, box_ms = rate(box_times)
+            results[name] = (track, box_rate)
+            print(f"{fitter.name:<44}{track:>13.0f}{track_ms:>7.2f}{box_rate:>11.0f}{box_ms:>7.2f}"
+                  f"{np.mean(iterations):>6.1f}")
+    track, box_rate = results["supervised-descent"]
+    print("\nfor the default fitter (supervised-descent):")
+    print(f"{'PASS' if track >= 300 else 'FAIL'}: tracking {track:.0f} fits/s (target >= 300)")
+    print(f"{'PASS' if box_rate >= 50 else 'FAIL'}: from a Haar box {box_rate:.0f} fits/s "
+          "(target >= 50)")
+
+
+if __name__ == "__main__":
+    main()
