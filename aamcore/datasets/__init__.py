@@ -2,6 +2,7 @@
 
 - :func:`read_asf`: AAM-API ``.asf`` shape files (IMM Frontal, 73 points).
 - :func:`read_pts`: 300-W ``.pts`` files (LFPW, 68 points).
+- :func:`load_jaffe`: the JAFFE expression set (poser and class from names).
 - :func:`load_annotated_folder`: every annotated image of a folder as
   :class:`FaceSample` objects, with the files that could not be read listed
   apart rather than stopping the load.
@@ -9,6 +10,7 @@
 
 from aamcore.datasets.asf import AsfShape, read_asf
 from aamcore.datasets.folder import AnnotatedSet, load_annotated_folder
+from aamcore.datasets.jaffe import ExpressionSample, JaffeSet, load_jaffe
 from aamcore.datasets.pts import read_pts
 from aamcore.datasets.sample import DatasetError, FaceSample, read_image
 
@@ -16,8 +18,11 @@ __all__ = [
     "AnnotatedSet",
     "AsfShape",
     "DatasetError",
+    "ExpressionSample",
     "FaceSample",
+    "JaffeSet",
     "load_annotated_folder",
+    "load_jaffe",
     "read_asf",
     "read_image",
     "read_pts",

@@ -18,6 +18,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "services.cli.model_cmd",
     "services.cli.fit_cmd",
     "services.cli.pose_cmd",
+    "services.cli.expression_cmd",
 )
 
 

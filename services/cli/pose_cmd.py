@@ -18,6 +18,7 @@ import numpy as np
 from aamcore.pose.evaluation import evaluate_pose_sequence, plot_pose_sequence, posit_vs_sqpnp
 from aamcore.pose.head_model import HeadModel, imm73, load_csv_model, openface68
 from aamcore.pose.intrinsics import CameraIntrinsics
+from services.cli.groups import eval_group
 
 SWEEP_CHOICES = ("yaw", "pitch", "roll", "distance", "all")
 
@@ -26,51 +27,58 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("synth", help="render a head under known poses: video + per-frame JSON")
     p.add_argument("--out", type=Path, required=True, help="output folder")
     p.add_argument("--frames", type=int, default=120, help="number of frames (default 120)")
-    p.add_argument("--sweep", choices=SWEEP_CHOICES, default="all",
-                   help="which pose parameter to sweep (default all, one after the other)")
+    p.add_argument(
+        "--sweep",
+        choices=SWEEP_CHOICES,
+        default="all",
+        help="which pose parameter to sweep (default all, one after the other)",
+    )
     _camera_options(p)
     p.add_argument("--photo", type=Path, help="texture photo (default: a frontal LFPW face)")
     p.add_argument("--landmarks", type=Path, help="the photo's 68-point .pts file")
     p.add_argument("--fps", type=float, default=30.0)
     p.set_defaults(func=run_synth)
 
-    e = _eval_subparsers(sub).add_parser(
-        "pose", help="POSIT vs SQPNP on synthesized landmarks, and pose error over a sequence")
+    e = eval_group(sub).add_parser(
+        "pose", help="POSIT vs SQPNP on synthesized landmarks, and pose error over a sequence"
+    )
     e.add_argument("--json", action="store_true", help="print the results as JSON")
-    e.add_argument("--sequence", type=Path, help="a folder written by 'aamtrack synth' "
-                   "(default: the poses are generated, nothing is rendered)")
+    e.add_argument(
+        "--sequence",
+        type=Path,
+        help="a folder written by 'aamtrack synth' "
+        "(default: the poses are generated, nothing is rendered)",
+    )
     e.add_argument("--frames", type=int, default=140, help="frames when generating (default 140)")
     e.add_argument("--sweep", choices=SWEEP_CHOICES, default="all")
     _camera_options(e)
     e.add_argument("--noise", default="0,1,2,3", help="pixel noise levels (default 0,1,2,3)")
-    e.add_argument("--model", default="openface68",
-                   help="3D model for the sequence: openface68 (default), openface68-rigid, "
-                   "exact (the synthetic head's own points) or a CSV file (iBUG-68)")
-    e.add_argument("--sequence-noise", type=float, default=1.0,
-                   help="pixel noise on the sequence's landmarks (default 1)")
+    e.add_argument(
+        "--model",
+        default="openface68",
+        help="3D model for the sequence: openface68 (default), openface68-rigid, "
+        "exact (the synthetic head's own points) or a CSV file (iBUG-68)",
+    )
+    e.add_argument(
+        "--sequence-noise",
+        type=float,
+        default=1.0,
+        help="pixel noise on the sequence's landmarks (default 1)",
+    )
     e.add_argument("--plot", type=Path, help="PNG of estimate against truth per frame")
     e.add_argument("--seed", type=int, default=0)
     e.set_defaults(func=run_eval_pose)
-
-
-def _eval_subparsers(sub: argparse._SubParsersAction) -> argparse._SubParsersAction:
-    """The sub-command set of ``aamtrack eval``, created if no other module made it yet."""
-    parser = sub.choices.get("eval")
-    if parser is None:
-        parser = sub.add_parser("eval", help="evaluate against ground truth")
-        parser.add_subparsers(dest="eval_command", required=True, metavar="WHAT")
-    for action in parser._actions:  # argparse keeps sub-command sets only here
-        if isinstance(action, argparse._SubParsersAction):
-            return action
-    return parser.add_subparsers(dest="eval_command", required=True, metavar="WHAT")
 
 
 def _camera_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--width", type=int, default=640)
     p.add_argument("--height", type=int, default=480)
     p.add_argument("--fov", type=float, default=60.0, help="horizontal field of view, degrees")
-    p.add_argument("--intrinsics", type=Path, help="calibration file (YAML, XML or JSON) "
-                   "instead of --width/--height/--fov")
+    p.add_argument(
+        "--intrinsics",
+        type=Path,
+        help="calibration file (YAML, XML or JSON) instead of --width/--height/--fov",
+    )
 
 
 def _camera(args: argparse.Namespace) -> CameraIntrinsics:
@@ -90,8 +98,9 @@ def run_synth(args: argparse.Namespace) -> int:
 
         if args.landmarks is None:
             raise ValueError("--photo needs --landmarks (its 68-point .pts file)")
-        texture = face_texture(synth_head(), read_image(args.photo), read_pts(args.landmarks),
-                               str(args.photo))
+        texture = face_texture(
+            synth_head(), read_image(args.photo), read_pts(args.landmarks), str(args.photo)
+        )
     path = synthesize(args.out, args.frames, args.sweep, _camera(args), texture, args.fps)
     print(f"wrote {args.frames} frames to {args.out} ({path.name}, video.mp4, frames/)")
     return 0
@@ -112,27 +121,43 @@ def _model(name: str, exact: HeadModel) -> HeadModel:
     raise ValueError(f"unknown model {name!r}: openface68, openface68-rigid, exact or a .csv")
 
 
-def _load_inputs(args: argparse.Namespace) -> tuple[list[np.ndarray], list[Any],
-                                                    CameraIntrinsics, HeadModel, str]:
+def _load_inputs(
+    args: argparse.Namespace,
+) -> tuple[list[np.ndarray], list[Any], CameraIntrinsics, HeadModel, str]:
     from aamcore.synth.head import synth_head
     from aamcore.synth.sequence import exact_landmarks, load_sequence, sweep_poses
 
     if args.sequence is not None:
         summary, records = load_sequence(args.sequence)
         intr = summary["intrinsics"]
-        camera = CameraIntrinsics(np.array(intr["camera_matrix"]),
-                                  np.array(intr["distortion_coefficients"]),
-                                  intr["image_width"], intr["image_height"], str(args.sequence))
+        camera = CameraIntrinsics(
+            np.array(intr["camera_matrix"]),
+            np.array(intr["distortion_coefficients"]),
+            intr["image_width"],
+            intr["image_height"],
+            str(args.sequence),
+        )
         landmarks = [np.array(r["landmarks"]) for r in records]
         truths = [{"R": r["R"], "T": r["T"]} for r in records]
-        exact = HeadModel("synth_sequence68", "ibug68", 68, np.arange(68),
-                          np.array(summary["model_points_mm"]), str(args.sequence))
+        exact = HeadModel(
+            "synth_sequence68",
+            "ibug68",
+            68,
+            np.arange(68),
+            np.array(summary["model_points_mm"]),
+            str(args.sequence),
+        )
         return landmarks, truths, camera, exact, f"sequence {args.sequence}"
     camera = _camera(args)
     head = synth_head()
     poses = sweep_poses(args.sweep, args.frames)
-    return (exact_landmarks(head, poses, camera), poses, camera, head.head_model(),
-            f"{args.frames} generated poses, sweep {args.sweep}")
+    return (
+        exact_landmarks(head, poses, camera),
+        poses,
+        camera,
+        head.head_model(),
+        f"{args.frames} generated poses, sweep {args.sweep}",
+    )
 
 
 def run_eval_pose(args: argparse.Namespace) -> int:
@@ -147,10 +172,12 @@ def run_eval_pose(args: argparse.Namespace) -> int:
     noisy = [lm + rng.normal(0.0, args.sequence_noise, np.shape(lm)) for lm in landmarks]
     sequence = evaluate_pose_sequence(noisy, truths, camera, model)
     if args.plot is not None:
-        plot_pose_sequence(sequence, args.plot, f"{model.name}, {what}, "
-                           f"{args.sequence_noise:g} px noise")
+        plot_pose_sequence(
+            sequence, args.plot, f"{model.name}, {what}, {args.sequence_noise:g} px noise"
+        )
     report = {
-        "input": what, "camera": camera.to_json(),
+        "input": what,
+        "camera": camera.to_json(),
         "posit_vs_sqpnp": comparison,
         "sequence": {k: v for k, v in sequence.items() if k != "per_frame"}
         | {"noise_px": args.sequence_noise},
@@ -170,11 +197,15 @@ def _print_report(report: dict[str, Any]) -> None:
     for level in cmp_["noise"]:
         for name in ("POSIT", "POSIT+GN", "SQPNP"):
             e = level[name]
-            print(f"  {level['noise_px']:8g} {name:<10}{e['roll']['mae']:8.3f}"
-                  f"{e['pitch']['mae']:8.3f}{e['yaw']['mae']:8.3f}{e['distance_cm']['mae']:9.3f}")
+            print(
+                f"  {level['noise_px']:8g} {name:<10}{e['roll']['mae']:8.3f}"
+                f"{e['pitch']['mae']:8.3f}{e['yaw']['mae']:8.3f}{e['distance_cm']['mae']:9.3f}"
+            )
     seq = report["sequence"]
-    print(f"\nsequence with model {seq['model']}, {seq['noise_px']:g} px noise: "
-          f"{seq['estimated']}/{seq['frames']} frames reliable, {seq['unreliable']} unreliable")
+    print(
+        f"\nsequence with model {seq['model']}, {seq['noise_px']:g} px noise: "
+        f"{seq['estimated']}/{seq['frames']} frames reliable, {seq['unreliable']} unreliable"
+    )
     print(f"  {'':<12}{'mean':>8}{'std':>8}{'mae':>8}{'max':>8}")
     for name, s in seq["errors"].items():
         print(f"  {name:<12}{s['mean']:8.2f}{s['std']:8.2f}{s['mae']:8.2f}{s['max_abs']:8.2f}")
