@@ -138,10 +138,16 @@ class Fitter:
         """Convert an input image for the model (channels, equalisation near ``shape``)."""
         return self.aam.prepare_image(image, shape)
 
-    def fit(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
-        """Fit from appearance ``c0`` and pose ``t0`` (e.g. the previous frame's fit)."""
+    def fit(
+        self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray, refine: bool = False
+    ) -> FitResult:
+        """Fit from appearance ``c0`` and pose ``t0``.
+
+        ``refine`` says the start is close to the face (the previous frame's
+        fit when tracking) and lets the algorithm skip its coarse work.
+        """
         start = self.aam.shape_instance(c0, t0)
-        return self.algorithm.run(self.prepare(image, start), c0, t0)
+        return self.algorithm.run(self.prepare(image, start), c0, t0, refine)
 
     def fit_shape(self, image: np.ndarray, shape: np.ndarray) -> FitResult:
         """Fit from the mean face placed on a start ``shape`` (N, 2)."""
@@ -184,7 +190,7 @@ class Tracker:
         detection on the same frame (thesis section 7.2.2).
         """
         if self.last is not None:
-            result = self.fitter.fit(image, self.last.c, self.last.t)
+            result = self.fitter.fit(image, self.last.c, self.last.t, refine=True)
             if result.ok:
                 self.last = result
                 return result

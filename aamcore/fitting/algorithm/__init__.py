@@ -1,8 +1,9 @@
 """Optimisation families for AAM fitting, one module each.
 
-Every algorithm offers ``run(image, c0, t0) -> FitResult`` on a prepared image
-(see :meth:`aamcore.aam.AAM.prepare_image`), with all costly precomputation in
-its constructor.
+Every algorithm offers ``run(image, c0, t0, refine=False) -> FitResult`` on a
+prepared image (see :meth:`aamcore.aam.AAM.prepare_image`), with all costly
+precomputation in its constructor; ``refine`` says the start is already close
+(tracking), which lets an algorithm skip its coarse work.
 """
 
 from aamcore.fitting.algorithm.fixed_jacobian import FixedJacobian

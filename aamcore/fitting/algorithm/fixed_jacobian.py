@@ -52,8 +52,14 @@ class FixedJacobian:
         t_new = compose_poses(t, invert_pose(alpha * dp[self.n_c :]))
         return c_new, t_new
 
-    def run(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
-        """Fit from ``(c0, t0)`` on a prepared ``image``."""
+    def run(
+        self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray, refine: bool = False
+    ) -> FitResult:
+        """Fit from ``(c0, t0)`` on a prepared ``image``.
+
+        ``refine`` (a start close to the face) changes nothing here: the
+        iteration stops by itself when the error stops falling.
+        """
         c, t = c0.astype(np.float64).copy(), t0.astype(np.float64).copy()
         r, error = self.residual(image, c, t)
         errors, seconds = [error], []

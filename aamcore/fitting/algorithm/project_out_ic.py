@@ -113,8 +113,14 @@ class ProjectOutInverseCompositional:
             out[v] = (a[:, :, :2] @ moved[v] + a[:, :, 2]).mean(axis=0)
         return out
 
-    def run(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
-        """Fit from the shape of ``(c0, t0)`` on a prepared ``image``."""
+    def run(
+        self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray, refine: bool = False
+    ) -> FitResult:
+        """Fit from the shape of ``(c0, t0)`` on a prepared ``image``.
+
+        ``refine`` changes nothing here: the iteration stops when the steps
+        become negligible.
+        """
         shape_model = self.aam.shape
         shape = self.residual.shape(c0, t0)
         b, t = shape_model.fit_points(shape)

@@ -74,6 +74,10 @@ class SupervisedDescent:
         self.features = FrameHog(aam.frame, cascade.hog_cell)
         self.basis = shape_basis(aam.shape.mean_shape, aam.shape.pca.components)
         self.weights = [np.ascontiguousarray(w, dtype=np.float32) for w in cascade.weights]
+        self.texture_mean = aam.texture.mean.astype(np.float32)
+        self.texture_components = np.ascontiguousarray(aam.texture.pca.components, np.float32)
+        # Tracking starts near the face: the first, coarse stages are skipped.
+        self.refine_from = min(2, max(len(self.weights) - 1, 0))
 
     def features_at(self, image: np.ndarray, shape: np.ndarray) -> np.ndarray:
         """Feature vector (D + 1,) with a trailing 1 for the bias."""
@@ -88,13 +92,19 @@ class SupervisedDescent:
         model = apply_pose(invert_pose(t), shape) + (self.basis @ dq).reshape(-1, 2)
         return apply_pose(t, model)
 
-    def run(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
-        """Fit from the shape of ``(c0, t0)`` on a prepared ``image``."""
+    def run(
+        self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray, refine: bool = False
+    ) -> FitResult:
+        """Fit from the shape of ``(c0, t0)`` on a prepared ``image``.
+
+        ``refine`` (a start close to the face, as when tracking) runs only the
+        later stages of the cascade.
+        """
         shape_model = self.aam.shape
         shape = self.residual.shape(c0, t0)
         b, t = shape_model.fit_points(shape, iterations=2)
         seconds = []
-        for stage in range(len(self.weights)):
+        for stage in range(self.refine_from if refine else 0, len(self.weights)):
             start = time.perf_counter()
             target = self.step(image, shape, t, stage)
             if not np.all(np.isfinite(target)):
@@ -103,9 +113,9 @@ class SupervisedDescent:
             shape = apply_pose(t, shape_model.instance(b))
             seconds.append(time.perf_counter() - start)
         g = self.residual.image_texture(image, shape)
-        b_g = self.aam.texture.params(g.astype(np.float64))
-        c = self.aam.combined.params(b, b_g)
-        model_g = self.aam.texture.instance(b_g)
+        b_g = (g - self.texture_mean) @ self.texture_components
+        c = self.aam.combined.params(b, b_g.astype(np.float64))
+        model_g = self.texture_mean + self.texture_components @ b_g
         error = float(np.mean((g - model_g) ** 2))
         reason = failure_reason(c, self.aam.combined.limits(3.0), shape)
         return FitResult(shape, c, t, error, len(seconds), bool(reason), reason, seconds, [error])
