@@ -51,3 +51,11 @@ def imm_model(imm_set):
 
     train = [s for s in imm_set.samples if int(s.subject) <= 9]
     return train_aam(train, imm_set.scheme, TrainConfig(n_pixels=4000))
+
+
+@pytest.fixture(scope="session")
+def lfpw_fit_model_path() -> Path:
+    """A small 68-point model ready for fitting: the first 150 LFPW images, cached."""
+    from aamcore.fitting.fitter import fitting_model_path
+
+    return fitting_model_path(limit=150, max_images=10)

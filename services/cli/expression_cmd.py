@@ -13,12 +13,14 @@ import sys
 from aamcore.expression.benchmark import (
     VARIANCES,
     format_benchmark,
+    load_aam_data,
+    load_pixel_data,
     run_expression_benchmark,
 )
 from aamcore.expression.svm import SVM_GRIDS
 from services.cli.groups import eval_group
 
-FEATURE_KINDS = ("pixels",)
+FEATURE_KINDS = ("aam", "pixels")
 """Feature extractors available to the command (the AAM one comes with AAM fitting)."""
 
 
@@ -55,8 +57,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--features",
         choices=FEATURE_KINDS,
-        default="pixels",
-        help="feature extractor (pixels: face-crop pixel PCA baseline, not AAM)",
+        default="aam",
+        help="feature extractor: aam (appearance vectors of a per-fold AAM on faces fitted by "
+        "the LFPW fitter, default) or pixels (face-crop pixel PCA baseline)",
     )
     parser.add_argument("--out", metavar="DIR", help="write confusion tables, PNGs and JSON here")
     parser.add_argument(
@@ -86,10 +89,11 @@ def run(args: argparse.Namespace) -> int:
     if args.trials < 1:
         raise ValueError(f"--trials must be at least 1, got {args.trials}")
     C_grid, gamma_grid = SVM_GRIDS[args.grid]
+    loader = load_aam_data if args.features == "aam" else load_pixel_data
     bench = run_expression_benchmark(
+        data=loader(args.data),
         variances=args.variances,
         class_counts=args.classes,
-        folder=args.data,
         n_trials=args.trials,
         out_dir=args.out,
         progress=lambda line: print(line, file=sys.stderr, flush=True),
