@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 from aamcore.expression.benchmark import (
     VARIANCES,
@@ -18,6 +19,8 @@ from aamcore.expression.benchmark import (
     run_expression_benchmark,
 )
 from aamcore.expression.svm import SVM_GRIDS
+from aamcore.fitting.fitter import Fitter
+from aamcore.model_file import load_model
 from services.cli.groups import eval_group
 
 FEATURE_KINDS = ("aam", "pixels")
@@ -81,6 +84,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="SVM C and gamma grid searched in each fold (coarse: quick runs)",
     )
     parser.add_argument("--data", metavar="DIR", help="JAFFE folder (default: <data root>/jaffe)")
+    parser.add_argument(
+        "--fit-model",
+        type=Path,
+        help="68-point model that fits the faces for --features aam (default: the stack's "
+        "LFPW model, trained on first use)",
+    )
     parser.set_defaults(func=run)
 
 
@@ -89,9 +98,13 @@ def run(args: argparse.Namespace) -> int:
     if args.trials < 1:
         raise ValueError(f"--trials must be at least 1, got {args.trials}")
     C_grid, gamma_grid = SVM_GRIDS[args.grid]
-    loader = load_aam_data if args.features == "aam" else load_pixel_data
+    if args.features == "aam":
+        fitter = Fitter(load_model(args.fit_model)) if args.fit_model else None
+        data = load_aam_data(args.data, fitter)
+    else:
+        data = load_pixel_data(args.data)
     bench = run_expression_benchmark(
-        data=loader(args.data),
+        data=data,
         variances=args.variances,
         class_counts=args.classes,
         n_trials=args.trials,

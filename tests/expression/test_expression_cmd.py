@@ -36,6 +36,8 @@ def test_eval_expression_json(
         str(data),
         "--out",
         str(out),
+        "--features",
+        "pixels",
     ]
     code = main(argv)
     report = json.loads(capsys.readouterr().out)
@@ -68,3 +70,32 @@ def test_options_are_parsed() -> None:
     args = parser.parse_args(["eval", "expression", "--variances", "95,99.5", "--classes", "7"])
     assert args.variances == [0.95, 0.995] and args.classes == [7]
     assert args.func.__module__ == "services.cli.expression_cmd"
+
+
+def test_eval_expression_on_aam_features(jaffe_dir, lfpw_fit_model_path, tmp_path, capsys) -> None:
+    data = tmp_path / "jaffe"
+    data.mkdir()
+    for poser in ("KA", "KL", "KM"):
+        for image in jaffe_dir.glob(f"{poser}.*.tiff"):
+            shutil.copy(image, data / image.name)
+    argv = [
+        "eval",
+        "expression",
+        "--json",
+        "--variances",
+        "95",
+        "--classes",
+        "5",
+        "--trials",
+        "2",
+        "--grid",
+        "coarse",
+        "--data",
+        str(data),
+        "--fit-model",
+        str(lfpw_fit_model_path),
+    ]
+    main(argv)
+    report = json.loads(capsys.readouterr().out)
+    assert report["features"].startswith("AAM appearance")
+    assert report["class_sets"]["5"]["best"]["overall_rate"] > 0.3
