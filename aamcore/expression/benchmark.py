@@ -99,7 +99,7 @@ def load_aam_data(folder: str | Path | None = None, fitter: Fitter | None = None
         jaffe.labels()[faces.kept],
         jaffe.posers()[faces.kept],
         jaffe.errors + faces.errors,
-        make_features=lambda variance: AAMAppearanceFeatures(scheme, variance),
+        make_features=lambda variance: AAMAppearanceFeatures(scheme, variance, equalise=True),
         features_name=AAM_FEATURES_NAME,
     )
 
