@@ -32,7 +32,8 @@ class PiecewiseAffineWarp:
     Notes
     -----
     Costly set-up (the weight matrix, the map buffers) happens here; per call
-    :meth:`warp` does one sparse product and one ``cv2.remap``.
+    :meth:`warp` does one sparse product and one ``cv2.remap``. The map buffer
+    is reused, so an instance serves one thread at a time.
     """
 
     def __init__(self, frame: ReferenceFrame, n_points: int) -> None:
