@@ -24,6 +24,7 @@ from aamcore.model_file import load_model
 from aamcore.pose.evaluation import evaluate_pose_sequence, plot_pose_sequence
 from aamcore.pose.head_model import openface68
 from aamcore.pose.intrinsics import CameraIntrinsics
+from aamcore.pose.tracked import track_frames
 from aamcore.synth.head import synth_head
 from aamcore.synth.sequence import default_texture, render_sequence, sweep_poses
 
@@ -43,33 +44,29 @@ def main() -> None:
     texture = default_texture(head)
     tracker = Tracker(Fitter(load_model(fitting_model_path())))
     model = openface68(rigid_subset=False if args.subset == "all" else args.subset)
-    landmarks, truths, fit_errors, seconds, flagged = [], [], [], [], 0
+    landmarks, truths, fit_errors, flagged = [], [], [], 0
     per_sweep = {}
+    start = time.perf_counter()
     for sweep in ("yaw", "pitch", "roll", "distance"):
         poses = sweep_poses(sweep, args.frames)
-        tracker.reset()
-        sweep_marks = []
-        for image, exact, _ in render_sequence(poses, camera, head, texture):
-            t0 = time.perf_counter()
-            fit = tracker.track(image)
-            seconds.append(time.perf_counter() - t0)
-            # Fits failing eq. 7.2 give no pose, as in the stack.
-            points = None if fit is None or fit.failed else fit.points
-            flagged += fit is not None and fit.failed
+        rendered = list(render_sequence(poses, camera, head, texture))
+        sweep_marks, sweep_flagged = track_frames((image for image, _, _ in rendered), tracker)
+        flagged += sweep_flagged
+        for points, (_, exact, _) in zip(sweep_marks, rendered, strict=True):
             if points is not None:
                 fit_errors.append(np.linalg.norm(points - exact, axis=1).mean())
-            sweep_marks.append(points)
         per_sweep[sweep] = evaluate_pose_sequence(sweep_marks, poses, camera, model)
         landmarks += sweep_marks
         truths += poses
         if sweep == "yaw" and args.plot:
             plot_pose_sequence(per_sweep[sweep], args.plot, "yaw sweep, POSIT on AAM fits")
+    seconds = time.perf_counter() - start
     result = evaluate_pose_sequence(landmarks, truths, camera, model)
     print(f"{len(truths)} rendered frames 640x480, {result['estimated']} with a reliable pose, "
           f"{result['missing']} without a fit, {result['unreliable']} unreliable, {flagged} fits "
           f"flagged by eq. 7.2; POSIT on {len(model.indices)} landmarks ({args.subset}); "
           f"landmark error {np.mean(fit_errors):.2f} px mean, "
-          f"{1000 * np.median(seconds):.1f} ms per tracked frame\n")
+          f"{seconds:.0f} s to render and track\n")
     print(f"{'sweep':<10}" + "".join(f"{n + ' sd':>12}" for n in THESIS_STD))
     for sweep, res in per_sweep.items():
         print(f"{sweep:<10}" + "".join(f"{res['errors'][n]['std']:>12.2f}" for n in THESIS_STD))

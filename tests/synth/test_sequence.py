@@ -31,8 +31,12 @@ def test_distance_sweep_and_all() -> None:
     assert d[0] == 600.0 and d.max() == pytest.approx(1200.0) and d.min() == pytest.approx(400.0)
     assert np.max(np.abs(np.diff(d))) < 50.0
     poses = sweep_poses("all", 10)
-    assert len(poses) == 10 and [p.sweep for p in poses][::3] == ["yaw", "pitch", "roll",
-                                                                  "distance"]
+    assert len(poses) == 10 and [p.sweep for p in poses][::3] == [
+        "yaw",
+        "pitch",
+        "roll",
+        "distance",
+    ]
     with pytest.raises(ValueError, match="unknown sweep"):
         sweep_poses("spin", 10)
     with pytest.raises(ValueError, match="at least 4"):
@@ -75,3 +79,31 @@ def test_exact_landmarks_and_bad_folder(tmp_path: Path) -> None:
     assert len(lms) == 5 and lms[0].shape == (68, 2)
     with pytest.raises(ValueError, match="not a complete synth sequence"):
         load_sequence(tmp_path)
+
+
+def test_eval_pose_end_to_end_on_fits(lfpw_fit_model_path, capsys) -> None:
+    import json
+
+    from services.cli import main
+
+    argv = [
+        "eval",
+        "pose",
+        "--json",
+        "--frames",
+        "6",
+        "--sweep",
+        "yaw",
+        "--noise",
+        "1",
+        "--fits",
+        "--fit-model",
+        str(lfpw_fit_model_path),
+    ]
+    assert main(argv) == 0
+    report = json.loads(capsys.readouterr().out)
+    fits = report["aam_fits"]
+    assert fits["frames"] == 6
+    assert fits["estimated"] + fits["missing"] + fits["unreliable"] + fits["failed"] == 6
+    assert fits["estimated"] >= 3
+    assert abs(fits["errors"]["distance_cm"]["mean"]) < 10
