@@ -19,6 +19,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "services.cli.fit_cmd",
     "services.cli.pose_cmd",
     "services.cli.expression_cmd",
+    "services.cli.run_cmd",
 )
 
 

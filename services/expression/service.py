@@ -1,0 +1,127 @@
+"""The expression service: classifies the appearance vector of each good fit.
+
+``aamtrack service expression --classifier FILE [--model AAM] [--smooth N]``
+
+Each fit that did not fail is classified by the
+:class:`~aamcore.expression.ExpressionClassifier`; with ``--smooth N`` the
+scores are averaged over the last N good fits (a failed fit or a lost face
+starts the average again) and the message says so. Without a usable
+classifier (none given, unreadable, or trained for another AAM) the service
+still runs: it takes fits, publishes no expression and says why in its status
+(state ``degraded``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import time
+
+import numpy as np
+
+from aamcore.expression import AAMMismatchError, ClassifierFileError, ExpressionClassifier
+from proto import Expression, Fit
+from services.expression.models import model_fingerprint
+from services.runtime import BusOptions, Service, init_process, service_parser
+
+NAME = "expression"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = service_parser(NAME, "Facial expression of each good fit.")
+    parser.add_argument("--classifier", help="expression classifier file (.npz)")
+    parser.add_argument("--model", help="the AAM model file the fitter uses, to check that the "
+                        "classifier was trained on its appearance vectors")
+    parser.add_argument("--smooth", type=int, default=1, metavar="N",
+                        help="average the scores over the last N good fits (default 1: none)")
+    parser.add_argument("--capacity", type=int, default=8, help="latest fits kept while busy")
+    return parser
+
+
+def load_classifier(path: str | None, model: str | None) -> tuple[ExpressionClassifier | None, str]:
+    """The classifier, or ``None`` and why there is none."""
+    if not path:
+        return None, "no expression classifier given (--classifier)"
+    try:
+        classifier = ExpressionClassifier.load(path)
+        if model:
+            classifier.check_aam(model_fingerprint(model))
+    except (ClassifierFileError, AAMMismatchError, OSError) as exc:
+        return None, f"no expression classifier: {exc}"
+    return classifier, ""
+
+
+class Smoother:
+    """Mean of the last ``n`` score vectors, restarted after a gap in good fits."""
+
+    def __init__(self, n: int) -> None:
+        if n < 1:
+            raise ValueError(f"--smooth must be >= 1, got {n}")
+        self._scores: collections.deque[np.ndarray] = collections.deque(maxlen=n)
+        self._last_index = -2
+
+    def add(self, frame_index: int, scores: np.ndarray) -> tuple[np.ndarray, bool]:
+        """The smoothed scores with this frame's, and whether more than one frame went in."""
+        if frame_index != self._last_index + 1:
+            self._scores.clear()
+        self._last_index = frame_index
+        self._scores.append(np.asarray(scores, np.float64))
+        return np.mean(self._scores, axis=0), len(self._scores) > 1
+
+
+def expression_message(
+    svc: Service, fit: Fit, classifier: ExpressionClassifier, smoother: Smoother
+) -> Expression:
+    """The expression of one good fit."""
+    _, scores = classifier.classify(np.asarray(fit.appearance, np.float64))
+    scores, smoothed = smoother.add(fit.header.frame_index, scores)
+    label = classifier.class_names[int(np.argmax(scores))]
+    header = svc.header(fit.header.frame_index, fit.header.capture_time_ns)
+    return Expression(header, label, classifier.class_names, scores.astype(np.float32), smoothed)
+
+
+def serve(svc: Service, classifier: ExpressionClassifier | None, why: str, args: argparse.Namespace
+          ) -> None:
+    """Classify fits until stopped."""
+    fits = svc.inbox("fit", capacity=args.capacity)
+    smoother = Smoother(args.smooth)
+    if classifier is None:
+        svc.log.error("%s; running without expressions", why)
+        svc.ready()
+        svc.set_state("degraded", why)
+    else:
+        svc.ready(f"{classifier.kind}, classes {','.join(classifier.class_names)}")
+    while not svc.stopping:
+        got = fits.get(timeout=0.5)
+        if got is None or classifier is None:
+            continue
+        fit = got.message
+        assert isinstance(fit, Fit)
+        if fit.failed:
+            continue
+        started = time.perf_counter()
+        try:
+            message = expression_message(svc, fit, classifier, smoother)
+        except ValueError as exc:  # an appearance vector of another length or non-finite
+            svc.reject("fit", f"not classified: {exc}")
+            continue
+        svc.publish(message)
+        svc.stats.latency.add(1000 * (time.perf_counter() - started))
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the expression service with parsed arguments; the exit code."""
+    init_process(NAME, args.verbose)
+    classifier, why = load_classifier(args.classifier, args.model)
+    with Service(NAME, BusOptions.from_args(args)) as svc:
+        serve(svc, classifier, why, args)
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point: ``python -m services.expression.service``."""
+    return run(build_parser().parse_args(argv))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""The head-pose service: POSIT on each fit (:mod:`services.pose.service`)."""

@@ -1,0 +1,111 @@
+"""Route decoded messages to their logger at the time of their frame."""
+
+from __future__ import annotations
+
+import numpy as np
+import rerun as rr
+
+from aamcore.pose.head_model import HeadModel
+from proto.messages import (
+    EndOfStream,
+    Expression,
+    FaceBoxes,
+    Fit,
+    Frame,
+    HeadPose,
+    Message,
+    Overlay,
+    Status,
+)
+from services.rerun_logger import entities as ent
+from services.rerun_logger.annotations import LandmarkClasses
+from services.rerun_logger.images import DEFAULT_QUALITY
+from services.rerun_logger.loggers import (
+    BoxesLogger,
+    ExpressionLogger,
+    FitLogger,
+    ImageLogger,
+    LatencyLogger,
+    PoseLogger,
+    StatusLogger,
+)
+from services.rerun_logger.series import SeriesWriter
+
+
+class StreamLogger:
+    """Logs every kind of message of a stream into one recording.
+
+    Each message is logged on the ``frame`` sequence timeline at its header's
+    frame index and on the ``capture_time`` timeline at its capture time. Call
+    :meth:`log` from one thread only: Rerun keeps the current time per thread.
+
+    Parameters
+    ----------
+    rec : rerun.RecordingStream
+        Where to log (with its sinks already set).
+    head_model : HeadModel, optional
+        3D head model drawn with the pose (see :class:`PoseLogger`).
+    jpeg_quality : int
+        JPEG quality for raw frames and overlays.
+    """
+
+    def __init__(
+        self,
+        rec: rr.RecordingStream,
+        head_model: HeadModel | None = None,
+        jpeg_quality: int = DEFAULT_QUALITY,
+    ) -> None:
+        self._rec = rec
+        classes = LandmarkClasses()
+        series = SeriesWriter(rec)
+        self.frames = ImageLogger(rec, ent.VIDEO, jpeg_quality)
+        self.overlays = ImageLogger(rec, ent.OVERLAY, jpeg_quality)
+        self.boxes = BoxesLogger(rec)
+        self.fits = FitLogger(rec, classes, series)
+        self.poses = PoseLogger(rec, classes, series, head_model)
+        self.expressions = ExpressionLogger(rec, series)
+        self.latency = LatencyLogger(series)
+        self.statuses = StatusLogger(rec, series)
+        self.counts: dict[str, int] = {}
+        """Messages logged, by kind."""
+
+    def set_time(self, msg: Message) -> None:
+        """Set the recording's timelines to the frame of ``msg``."""
+        self._rec.set_time(ent.FRAME_TIMELINE, sequence=msg.header.frame_index)
+        self._rec.set_time(
+            ent.CAPTURE_TIMELINE, timestamp=np.datetime64(msg.header.capture_time_ns, "ns")
+        )
+
+    def log(self, msg: Message) -> None:
+        """Log ``msg`` with the logger of its kind.
+
+        Raises
+        ------
+        TypeError
+            For an object that is not one of the proto message kinds.
+        """
+        self.set_time(msg)
+        match msg:
+            case Frame():
+                self.frames.log(msg)
+            case Overlay():
+                self.overlays.log(msg)
+            case FaceBoxes():
+                self.boxes.log(msg)
+            case Fit():
+                self.fits.log(msg)
+            case HeadPose():
+                self.poses.log(msg)
+            case Expression():
+                self.expressions.log(msg)
+            case Status():
+                self.statuses.log(msg)
+            case EndOfStream():
+                self._rec.log(
+                    ent.EVENTS,
+                    rr.TextLog(f"end of stream after {msg.total_frames} frames: {msg.reason}"),
+                )
+            case _:
+                raise TypeError(f"not a proto message: {type(msg).__name__}")
+        self.latency.log(msg)
+        self.counts[msg.KIND] = self.counts.get(msg.KIND, 0) + 1

@@ -1,0 +1,260 @@
+"""One logger per kind of output, each taking decoded proto messages.
+
+The loggers know nothing of the bus: they are given a ``rerun.RecordingStream``
+and messages, and log at the stream's current time (the caller,
+:class:`services.rerun_logger.dispatch.StreamLogger`, sets the timelines from
+each message's header). Entity paths are in :mod:`services.rerun_logger.entities`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import rerun as rr
+
+from aamcore.pose.head_model import HeadModel
+from proto.messages import Expression, FaceBoxes, Fit, Frame, HeadPose, Message, Overlay, Status
+from services.rerun_logger import entities as ent
+from services.rerun_logger.annotations import LandmarkClasses
+from services.rerun_logger.images import DEFAULT_QUALITY, message_jpeg
+from services.rerun_logger.series import SeriesWriter
+
+BOX_COLOUR = (255, 200, 0)
+HEAD_AXIS_MM = 60.0
+"""Length of the head's drawn axes, millimetres."""
+LATENCY_KINDS = ("frame", "boxes", "fit", "pose", "expression", "overlay")
+"""Message kinds whose header latency (publish - capture) is a pipeline stage."""
+
+
+def log_landmark_class(
+    rec: rr.RecordingStream, classes: LandmarkClasses, scheme: str, n_points: int, failed: bool
+) -> int:
+    """The class id of a scheme's landmarks, logging the annotation context when it is new."""
+    class_id, is_new = classes.class_id(scheme, n_points, failed)
+    if is_new:
+        rec.log("/", classes.context(), static=True)
+    return class_id
+
+
+class ImageLogger:
+    """Logs frame or overlay messages as JPEG ``EncodedImage`` on one entity.
+
+    Parameters
+    ----------
+    rec : rerun.RecordingStream
+    entity : str
+        E.g. :data:`entities.VIDEO` or :data:`entities.OVERLAY`.
+    quality : int
+        JPEG quality for raw images (JPEG ones are logged as they came).
+    """
+
+    def __init__(self, rec: rr.RecordingStream, entity: str, quality: int = DEFAULT_QUALITY):
+        self._rec = rec
+        self._entity = entity
+        self._quality = quality
+
+    def log(self, msg: Frame | Overlay) -> None:
+        """Log the image of ``msg``."""
+        jpeg = message_jpeg(msg, self._quality)
+        self._rec.log(self._entity, rr.EncodedImage(contents=jpeg, media_type="image/jpeg"))
+
+
+class BoxesLogger:
+    """Logs the detector's face boxes as ``Boxes2D`` labelled with their scores."""
+
+    def __init__(self, rec: rr.RecordingStream) -> None:
+        self._rec = rec
+
+    def log(self, msg: FaceBoxes) -> None:
+        """Log the boxes of ``msg`` (an empty batch clears the previous boxes)."""
+        labels = [f"face {score:.2f}" for score in msg.scores]
+        self._rec.log(
+            ent.BOXES,
+            rr.Boxes2D(
+                array=np.asarray(msg.boxes, dtype=np.float32).reshape(-1, 4),
+                array_format=rr.Box2DFormat.XYWH,
+                labels=labels,
+                colors=BOX_COLOUR,
+            ),
+        )
+
+
+class FitLogger:
+    """Logs fitted landmarks as keypoints of their scheme, and the fit quality as series.
+
+    Landmarks go to :data:`entities.LANDMARKS` with the class of their scheme
+    (failed fits in a class of their own; a fit without landmarks clears
+    them); texture error, iterations and the
+    converged and failed flags go to ``series/fit/*``; a failure is also a
+    warning on :data:`entities.EVENTS`.
+    """
+
+    def __init__(
+        self, rec: rr.RecordingStream, classes: LandmarkClasses, series: SeriesWriter
+    ) -> None:
+        self._rec = rec
+        self._classes = classes
+        self._series = series
+
+    def log(self, msg: Fit) -> None:
+        """Log the landmarks and quality of ``msg``."""
+        n = len(msg.landmarks)
+        if n == 0:  # no face: clear the previous landmarks
+            self._rec.log(ent.LANDMARKS, rr.Points2D(np.zeros((0, 2), np.float32)))
+        else:
+            class_id = log_landmark_class(self._rec, self._classes, msg.scheme, n, msg.failed)
+            self._rec.log(
+                ent.LANDMARKS,
+                rr.Points2D(msg.landmarks, class_ids=class_id, keypoint_ids=np.arange(n)),
+            )
+        self._series.scalar(f"{ent.FIT_SERIES}/texture_error", msg.texture_error)
+        self._series.scalar(f"{ent.FIT_SERIES}/iterations", msg.iterations)
+        self._series.scalar(f"{ent.FIT_SERIES}/converged", float(msg.converged))
+        self._series.scalar(f"{ent.FIT_SERIES}/failed", float(msg.failed))
+        if msg.failed:
+            self._rec.log(
+                ent.EVENTS,
+                rr.TextLog(
+                    f"frame {msg.header.frame_index}: fit failed: {msg.failure_reason}",
+                    level=rr.TextLogLevel.WARN,
+                ),
+            )
+
+
+class PoseLogger:
+    """Logs the head pose as a 3D transform of the head model, and the camera as a pinhole.
+
+    The world is the camera frame (OpenCV axes, mm). The pose's ``R, T`` map
+    head-model to camera coordinates, which is exactly the transform of
+    :data:`entities.HEAD` relative to :data:`entities.WORLD`. The head model's
+    points are logged once, statically, under the head as keypoints of their
+    scheme, so the annotation context draws the same connections as on the
+    video. The pinhole's image plane is put at the head's depth, where the
+    model's points project onto the fitted landmarks.
+
+    Parameters
+    ----------
+    rec : rerun.RecordingStream
+    classes : LandmarkClasses
+        Shared with the :class:`FitLogger`.
+    series : SeriesWriter
+    head_model : HeadModel, optional
+        3D points of a landmark scheme (e.g. ``aamcore.pose.head_model.openface68()``);
+        ``None`` logs the pose without a model.
+    """
+
+    def __init__(
+        self,
+        rec: rr.RecordingStream,
+        classes: LandmarkClasses,
+        series: SeriesWriter,
+        head_model: HeadModel | None = None,
+    ) -> None:
+        self._rec = rec
+        self._classes = classes
+        self._series = series
+        self._head_model = head_model
+        self._static_logged = False
+
+    def _log_static(self) -> None:
+        self._rec.log(ent.WORLD, rr.ViewCoordinates.RDF, static=True)
+        self._rec.log(ent.HEAD, rr.TransformAxes3D(HEAD_AXIS_MM), static=True)
+        model = self._head_model
+        if model is not None:
+            class_id = log_landmark_class(
+                self._rec, self._classes, model.scheme, model.n_landmarks, failed=False
+            )
+            self._rec.log(
+                ent.HEAD_MODEL,
+                rr.Points3D(model.points, class_ids=class_id, keypoint_ids=model.indices),
+                static=True,
+            )
+        self._static_logged = True
+
+    def log(self, msg: HeadPose) -> None:
+        """Log the camera, the head transform and roll, pitch, yaw of ``msg``."""
+        if not self._static_logged:
+            self._log_static()
+        depth = float(msg.translation_mm[2])
+        self._rec.log(
+            ent.CAMERA,
+            rr.Pinhole(
+                image_from_camera=msg.intrinsics,
+                resolution=[msg.image_width, msg.image_height],
+                camera_xyz=rr.ViewCoordinates.RDF,
+                image_plane_distance=depth if depth > 0 else None,
+            ),
+        )
+        self._rec.log(ent.HEAD, rr.Transform3D(translation=msg.translation_mm, mat3x3=msg.rotation))
+        for name in ("roll", "pitch", "yaw"):
+            self._series.scalar(f"{ent.POSE_SERIES}/{name}_deg", getattr(msg, f"{name}_deg"))
+        self._series.scalar(f"{ent.POSE_SERIES}/reliable", float(msg.reliable))
+
+
+class ExpressionLogger:
+    """Logs each class score as a series; a change of label is an event."""
+
+    def __init__(self, rec: rr.RecordingStream, series: SeriesWriter) -> None:
+        self._rec = rec
+        self._series = series
+        self._label: str | None = None
+
+    def log(self, msg: Expression) -> None:
+        """Log the scores of ``msg`` on ``series/expression/<class>``."""
+        for name, score in zip(msg.class_names, msg.scores, strict=True):
+            self._series.scalar(ent.child(ent.EXPRESSION_SERIES, name), float(score), name)
+        if msg.label != self._label:
+            self._label = msg.label
+            self._rec.log(
+                ent.EVENTS,
+                rr.TextLog(f"frame {msg.header.frame_index}: expression {msg.label}"),
+            )
+
+
+class LatencyLogger:
+    """Logs the latency from capture to publication of each stage, in milliseconds."""
+
+    def __init__(self, series: SeriesWriter) -> None:
+        self._series = series
+
+    def log(self, msg: Message) -> None:
+        """Log ``publish_time_ns - capture_time_ns`` of ``msg`` on ``series/latency/<kind>``.
+
+        Messages of kinds that are not a pipeline stage (status, end of stream)
+        are ignored.
+        """
+        if msg.KIND not in LATENCY_KINDS:
+            return
+        ms = (msg.header.publish_time_ns - msg.header.capture_time_ns) / 1e6
+        self._series.scalar(f"{ent.LATENCY_SERIES}/{msg.KIND}", ms, f"capture -> {msg.KIND}")
+
+
+STATUS_COUNTS = (
+    "frames_in",
+    "frames_out",
+    "dropped",
+    "rejected",
+    "restarts",
+    "latency_p50_ms",
+    "latency_p99_ms",
+)
+"""Status fields logged as series."""
+
+
+class StatusLogger:
+    """Logs each service's status counts as series; a change of state is an event."""
+
+    def __init__(self, rec: rr.RecordingStream, series: SeriesWriter) -> None:
+        self._rec = rec
+        self._series = series
+        self._states: dict[str, str] = {}
+
+    def log(self, msg: Status) -> None:
+        """Log the counts of ``msg`` on ``series/status/<service>/<field>``."""
+        base = ent.child(ent.STATUS_SERIES, msg.service)
+        for field in STATUS_COUNTS:
+            self._series.scalar(f"{base}/{field}", getattr(msg, field), f"{msg.service} {field}")
+        if self._states.get(msg.service) != msg.state:
+            self._states[msg.service] = msg.state
+            level = rr.TextLogLevel.ERROR if msg.state == "failed" else rr.TextLogLevel.INFO
+            text = f"{msg.service} is {msg.state}" + (f": {msg.message}" if msg.message else "")
+            self._rec.log(ent.EVENTS, rr.TextLog(text, level=level))

@@ -1,0 +1,145 @@
+"""Opening a video input (file, camera or stream URL) through OpenCV, with clear errors.
+
+:func:`open_input` checks what it is given before OpenCV sees it (a missing
+file, an empty one, a file that does not decode, a URL that does not answer
+within a timeout) and raises :class:`SourceError` naming the input and the
+problem. :class:`VideoInput` then yields ``(H, W, 3)`` BGR frames, replaying a
+file ``loops`` times.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+URL_PREFIXES = ("rtsp://", "rtsps://", "http://", "https://", "udp://", "tcp://", "rtmp://")
+OPEN_TIMEOUT_MS = 5000
+"""How long a stream URL may take to answer when opened or read."""
+FALLBACK_FPS = 30.0
+
+
+class SourceError(RuntimeError):
+    """A video input cannot be opened or read; the message names it and says why."""
+
+
+@dataclass(frozen=True)
+class InputSpec:
+    """What to capture from: exactly one of a file, a camera index or a URL."""
+
+    video: str | None = None
+    camera: int | None = None
+    url: str | None = None
+
+    def __post_init__(self) -> None:
+        given = [x is not None for x in (self.video, self.camera, self.url)]
+        if sum(given) != 1:
+            raise ValueError("give exactly one of a video file, a camera index or a stream URL")
+        if self.url is not None and not self.url.startswith(URL_PREFIXES):
+            raise ValueError(f"stream URL {self.url!r} does not start with one of {URL_PREFIXES}")
+
+    @property
+    def is_file(self) -> bool:
+        return self.video is not None
+
+    def describe(self) -> str:
+        if self.video is not None:
+            return f"video file {self.video}"
+        if self.camera is not None:
+            return f"camera {self.camera}"
+        return f"stream {self.url}"
+
+
+def _open_capture(spec: InputSpec) -> cv2.VideoCapture:
+    if spec.video is not None:
+        path = Path(spec.video)
+        if not path.exists():
+            raise SourceError(f"{spec.describe()}: no such file")
+        if not path.is_file():
+            raise SourceError(f"{spec.describe()}: not a regular file")
+        if path.stat().st_size == 0:
+            raise SourceError(f"{spec.describe()}: the file is empty")
+        return cv2.VideoCapture(str(path))
+    if spec.camera is not None:
+        return cv2.VideoCapture(spec.camera)
+    params = [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, OPEN_TIMEOUT_MS,
+              cv2.CAP_PROP_READ_TIMEOUT_MSEC, OPEN_TIMEOUT_MS]
+    return cv2.VideoCapture(spec.url, cv2.CAP_FFMPEG, params)
+
+
+class VideoInput:
+    """An opened video input; iterate :meth:`frames` for BGR frames.
+
+    Parameters
+    ----------
+    spec : InputSpec
+    loops : int
+        Times to play a file (0: forever); ignored for cameras and URLs.
+
+    Raises
+    ------
+    SourceError
+        When the input cannot be opened or its first frame cannot be read.
+    """
+
+    def __init__(self, spec: InputSpec, loops: int = 1) -> None:
+        if loops < 0:
+            raise ValueError(f"loops must be >= 0, got {loops}")
+        self.spec = spec
+        self.loops = loops if spec.is_file else 1
+        self._cap = _open_capture(spec)
+        if not self._cap.isOpened():
+            self._cap.release()
+            raise SourceError(f"{spec.describe()}: OpenCV cannot open it (not a video it "
+                              "can decode, a camera that is absent, or a URL that does not "
+                              f"answer within {OPEN_TIMEOUT_MS / 1000:g} s)")
+        ok, first = self._cap.read()
+        if not ok or first is None or first.size == 0:
+            self._cap.release()
+            raise SourceError(f"{spec.describe()}: opened but no frame could be read "
+                              "(corrupt or empty video)")
+        self._first: np.ndarray | None = first
+        self.height, self.width = first.shape[:2]
+        fps = float(self._cap.get(cv2.CAP_PROP_FPS) or 0.0)
+        self.fps = fps if 1.0 <= fps <= 1000.0 else FALLBACK_FPS
+        self.read_errors = 0
+
+    def frames(self) -> Iterator[np.ndarray]:
+        """Frames in order, every pass of a file; stops at the end or on a read error."""
+        played = 0
+        while True:
+            frame = self._take_first() if played == 0 else None
+            if frame is not None:
+                yield frame
+            while True:
+                ok, frame = self._cap.read()
+                if not ok or frame is None:
+                    break
+                yield frame
+            played += 1
+            if self.loops != 0 and played >= self.loops:
+                return
+            if not self._cap.set(cv2.CAP_PROP_POS_FRAMES, 0):
+                raise SourceError(f"{self.spec.describe()}: cannot rewind to loop")
+
+    def _take_first(self) -> np.ndarray | None:
+        first, self._first = self._first, None
+        return first
+
+    def close(self) -> None:
+        """Release the capture."""
+        self._cap.release()
+
+    def __enter__(self) -> VideoInput:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def open_input(spec: InputSpec, loops: int = 1) -> VideoInput:
+    """Open ``spec`` (see :class:`VideoInput`)."""
+    return VideoInput(spec, loops)

@@ -1,0 +1,50 @@
+"""services.expression.models: the classifier of the AAM in use, trained on JAFFE and cached."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import pytest
+
+from aamcore.expression import ExpressionClassifier
+from aamcore.model_file import load_model
+from services.expression import models
+
+
+def test_the_cached_classifier_belongs_to_the_model(
+    model_path: Path, classifier_path: Path
+) -> None:
+    classifier = ExpressionClassifier.load(classifier_path)
+    assert classifier.feature_dim == load_model(model_path).n_appearance
+    assert classifier.aam_fingerprint == models.model_fingerprint(model_path)
+    assert set(classifier.class_names) == {"NE", "HA", "SA", "SU", "AN", "FE", "DI"}
+    assert classifier.info["samples"] >= 150  # of 213 JAFFE images
+
+
+def test_a_cached_classifier_is_reused(model_path: Path, classifier_path: Path) -> None:
+    before = classifier_path.stat().st_mtime_ns
+    assert models.classifier_path(model_path) == classifier_path
+    assert classifier_path.stat().st_mtime_ns == before
+
+
+def test_fingerprints_tell_models_apart(tmp_path: Path, model_path: Path) -> None:
+    copy = tmp_path / "copy.npz"
+    copy.write_bytes(model_path.read_bytes())
+    other = tmp_path / "other.npz"
+    other.write_bytes(model_path.read_bytes() + b"\0")
+    fingerprint = models.model_fingerprint(model_path)
+    assert models.model_fingerprint(copy) == fingerprint != models.model_fingerprint(other)
+
+
+def test_without_jaffe_the_service_is_started_without_a_classifier(
+    model_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    monkeypatch.setenv("AAMTRACK_DATA", str(tmp_path / "no-data"))
+    monkeypatch.setenv("AAMTRACK_CACHE", str(tmp_path / "cache"))
+    with caplog.at_level(logging.WARNING):
+        argv = models.classifier_argv(model_path)
+    assert argv == ["--model", str(model_path)]
+    assert any("no expression classifier" in r.getMessage() for r in caplog.records)
+    assert models.classifier_argv(model_path, "given.npz")[-2:] == ["--classifier", "given.npz"]
