@@ -81,7 +81,7 @@ def main() -> None:
                 box_times.append(time.perf_counter() - t0)
                 if previous is not None:
                     t0 = time.perf_counter()
-                    fit = fitter.fit(frame, previous.c, previous.t, refine=True)
+                    fit = fitter.track(frame, previous)
                     track_times.append(time.perf_counter() - t0)
                 iterations.append(fit.iterations)
                 previous = fit

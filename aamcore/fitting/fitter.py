@@ -24,7 +24,7 @@ from aamcore.fitting.algorithm import (
 )
 from aamcore.fitting.descent_training import attach_cascade, stored_cascade, train_descent
 from aamcore.fitting.residuals import WarpFn
-from aamcore.fitting.result import FitResult
+from aamcore.fitting.result import FailureTest, FitResult
 from aamcore.fitting.update_training import (
     PerturbationScheme,
     attach_update,
@@ -103,6 +103,8 @@ class Fitter:
     max_iterations : int, optional
     warp : callable, optional
         Texture sampler ``warp(image, shape) -> (M, C)``; the CPU warp by default.
+    failure_test : {"eq7.2", "chi2"}
+        How a failed fit is recognised (see :class:`FailureTest`).
     """
 
     def __init__(
@@ -111,23 +113,29 @@ class Fitter:
         algorithm: str = "supervised-descent",
         max_iterations: int | None = None,
         warp: WarpFn | None = None,
+        failure_test: str = "eq7.2",
     ) -> None:
         if algorithm not in ALGORITHMS:
             raise ValueError(f"unknown fitting algorithm {algorithm!r}: choose one of {ALGORITHMS}")
         self.aam = aam
         self.mapping = stored_mapping(aam)
+        failure = FailureTest(aam.combined.pca.variances, failure_test)
         if algorithm == "supervised-descent":
-            self.algorithm = SupervisedDescent(aam, stored_cascade(aam), warp)
+            self.algorithm = SupervisedDescent(aam, stored_cascade(aam), warp, failure)
         elif algorithm == "fixed-jacobian":
-            self.algorithm = FixedJacobian(aam, stored_update(aam), max_iterations or 20, warp)
+            self.algorithm = FixedJacobian(
+                aam, stored_update(aam), max_iterations or 20, warp, failure
+            )
         elif algorithm == "multi-resolution":
             levels = [
-                FixedJacobian(aam, stored_update(aam, level), max_iterations or 20, warp)
+                FixedJacobian(aam, stored_update(aam, level), max_iterations or 20, warp, failure)
                 for level in range(stored_levels(aam))
             ]
             self.algorithm = MultiResolution(levels)
         else:
-            self.algorithm = ProjectOutInverseCompositional(aam, max_iterations or 30, warp)
+            self.algorithm = ProjectOutInverseCompositional(
+                aam, max_iterations or 30, warp, failure
+            )
         self.zero = np.zeros(aam.n_appearance)
 
     @property
@@ -138,16 +146,14 @@ class Fitter:
         """Convert an input image for the model (channels, equalisation near ``shape``)."""
         return self.aam.prepare_image(image, shape)
 
-    def fit(
-        self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray, refine: bool = False
-    ) -> FitResult:
-        """Fit from appearance ``c0`` and pose ``t0``.
-
-        ``refine`` says the start is close to the face (the previous frame's
-        fit when tracking) and lets the algorithm skip its coarse work.
-        """
+    def fit(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
+        """Fit from appearance ``c0`` and pose ``t0``."""
         start = self.aam.shape_instance(c0, t0)
-        return self.algorithm.run(self.prepare(image, start), c0, t0, refine)
+        return self.algorithm.run(self.prepare(image, start), c0, t0)
+
+    def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
+        """Fit from the previous frame's fit (the algorithm chooses how to start from it)."""
+        return self.algorithm.track(self.prepare(image, previous.points), previous)
 
     def fit_shape(self, image: np.ndarray, shape: np.ndarray) -> FitResult:
         """Fit from the mean face placed on a start ``shape`` (N, 2)."""
@@ -190,7 +196,7 @@ class Tracker:
         detection on the same frame (thesis section 7.2.2).
         """
         if self.last is not None:
-            result = self.fitter.fit(image, self.last.c, self.last.t, refine=True)
+            result = self.fitter.track(image, self.last)
             if result.ok:
                 self.last = result
                 return result

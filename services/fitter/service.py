@@ -30,7 +30,7 @@ import numpy as np
 from aamcore.aam import AAM
 from aamcore.detection import HaarFaceDetector
 from aamcore.fitting.fitter import ALGORITHMS, Fitter, Tracker, fitting_model_path
-from aamcore.fitting.result import FitResult
+from aamcore.fitting.result import FAILURE_TESTS, FitResult
 from aamcore.model_file import load_model
 from proto import Fit, Frame, Header, ProtoError, decode, encode
 from proto.keys import detect_key
@@ -57,6 +57,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="images for the default model's update matrix")
     parser.add_argument("--algorithm", choices=ALGORITHMS, default=DEFAULT_ALGORITHM,
                         help=f"fitting algorithm (default {DEFAULT_ALGORITHM})")
+    parser.add_argument("--failure-test", choices=FAILURE_TESTS, default="chi2",
+                        help="how a failed fit is recognised: chi2 (Mahalanobis distance of "
+                             "the appearance, default) or eq7.2 (any parameter beyond 3 sd, "
+                             "the thesis's test, which flags many good fits of a large model)")
     parser.add_argument("--warp", choices=("gpu", "cpu"), default="gpu",
                         help="where the image warp runs (gpu falls back to cpu without GL)")
     parser.add_argument("--detect-timeout", type=float, default=1.0,
@@ -269,7 +273,7 @@ def run(args: argparse.Namespace) -> int:
         return 1
     log.info("warp on the %s (%s)", warp_path, getattr(warp, "renderer", ""))
     try:
-        fitter = Fitter(aam, args.algorithm, warp=warp)
+        fitter = Fitter(aam, args.algorithm, warp=warp, failure_test=args.failure_test)
         warm_up(fitter)
         with Service(NAME, BusOptions.from_args(args)) as svc:
             detector = ServiceDetector(svc, args.detect_timeout, args.local_for)

@@ -1,9 +1,10 @@
 """Optimisation families for AAM fitting, one module each.
 
-Every algorithm offers ``run(image, c0, t0, refine=False) -> FitResult`` on a
-prepared image (see :meth:`aamcore.aam.AAM.prepare_image`), with all costly
-precomputation in its constructor; ``refine`` says the start is already close
-(tracking), which lets an algorithm skip its coarse work.
+Every algorithm offers ``run(image, c0, t0) -> FitResult`` and
+``track(image, previous: FitResult) -> FitResult`` on a prepared image (see
+:meth:`aamcore.aam.AAM.prepare_image`), with all costly precomputation in its
+constructor; ``track`` starts from the previous frame's fit in whatever way
+suits the algorithm (its parameters, its landmarks, or its pose).
 """
 
 from aamcore.fitting.algorithm.fixed_jacobian import FixedJacobian

@@ -8,7 +8,7 @@ import numpy as np
 
 from aamcore.aam import AAM
 from aamcore.fitting.residuals import ResidualFunction, WarpFn
-from aamcore.fitting.result import FitResult, failure_reason
+from aamcore.fitting.result import FailureTest, FitResult
 from aamcore.fitting.update_training import UpdateMatrix
 from aamcore.similarity_params import compose_poses, invert_pose
 
@@ -27,6 +27,8 @@ class FixedJacobian:
     max_iterations : int
     warp : callable, optional
         Texture sampler ``warp(image, shape) -> (M, C)`` (CPU warp by default).
+    failure : FailureTest, optional
+        The test of a failed fit (eq. 7.2 by default).
     """
 
     name = "fixed-jacobian"
@@ -37,13 +39,14 @@ class FixedJacobian:
         update: UpdateMatrix,
         max_iterations: int = 20,
         warp: WarpFn | None = None,
+        failure: FailureTest | None = None,
     ) -> None:
         self.aam = aam
         self.R = np.ascontiguousarray(update.R, dtype=np.float32)
         self.max_iterations = max_iterations
         self.residual = ResidualFunction(aam, warp)
         self.n_c = aam.n_appearance
-        self.limits = aam.combined.limits(3.0)
+        self.failure = failure or FailureTest(aam.combined.pca.variances)
 
     def _step(self, c: np.ndarray, t: np.ndarray, dp: np.ndarray, alpha: float):
         c_new = c - alpha * dp[: self.n_c]
@@ -52,14 +55,12 @@ class FixedJacobian:
         t_new = compose_poses(t, invert_pose(alpha * dp[self.n_c :]))
         return c_new, t_new
 
-    def run(
-        self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray, refine: bool = False
-    ) -> FitResult:
-        """Fit from ``(c0, t0)`` on a prepared ``image``.
+    def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
+        """Fit from the previous frame's parameters."""
+        return self.run(image, previous.c, previous.t)
 
-        ``refine`` (a start close to the face) changes nothing here: the
-        iteration stops by itself when the error stops falling.
-        """
+    def run(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
+        """Fit from ``(c0, t0)`` on a prepared ``image``."""
         c, t = c0.astype(np.float64).copy(), t0.astype(np.float64).copy()
         r, error = self.residual(image, c, t)
         errors, seconds = [error], []
@@ -81,5 +82,5 @@ class FixedJacobian:
             if not improved:
                 break
         points = self.residual.shape(c, t)
-        reason = failure_reason(c, self.limits, points)
+        reason = self.failure(c, points)
         return FitResult(points, c, t, error, iterations, bool(reason), reason, seconds, errors)

@@ -52,15 +52,12 @@ class MultiResolution:
         self.levels = levels
         self.name = f"multi-resolution({levels[0].name}, {len(levels)} levels)"
 
-    def run(
-        self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray, refine: bool = False
-    ) -> FitResult:
-        """Fit from ``(c0, t0)``, given in full-image pixels.
+    def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
+        """Fit from the previous frame's fit, at full resolution only."""
+        return self.levels[0].track(image, previous)
 
-        ``refine`` (a start close to the face) fits at full resolution only.
-        """
-        if refine:
-            return self.levels[0].run(image, c0, t0)
+    def run(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
+        """Fit from ``(c0, t0)``, given in full-image pixels."""
         images = pyramid(image, len(self.levels))
         c, t = c0, t0
         seconds: list[float] = []

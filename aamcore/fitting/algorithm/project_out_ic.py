@@ -19,7 +19,7 @@ from scipy import ndimage
 
 from aamcore.aam import AAM
 from aamcore.fitting.residuals import ResidualFunction, WarpFn
-from aamcore.fitting.result import FitResult, failure_reason
+from aamcore.fitting.result import FailureTest, FitResult
 from aamcore.similarity_params import apply_pose
 
 
@@ -57,14 +57,23 @@ class ProjectOutInverseCompositional:
     max_iterations : int
     warp : callable, optional
         Texture sampler ``warp(image, shape) -> (M, C)``.
+    failure : FailureTest, optional
+        The test of a failed fit (eq. 7.2 by default).
     """
 
     name = "project-out-ic"
 
-    def __init__(self, aam: AAM, max_iterations: int = 30, warp: WarpFn | None = None) -> None:
+    def __init__(
+        self,
+        aam: AAM,
+        max_iterations: int = 30,
+        warp: WarpFn | None = None,
+        failure: FailureTest | None = None,
+    ) -> None:
         self.aam = aam
         self.max_iterations = max_iterations
         self.residual = ResidualFunction(aam, warp)
+        self.failure = failure or FailureTest(aam.combined.pca.variances)
         frame = aam.frame
         self.mean_shape = aam.shape.mean_shape
         self.s0 = frame.vertices  # mean shape in frame pixels
@@ -113,16 +122,17 @@ class ProjectOutInverseCompositional:
             out[v] = (a[:, :, :2] @ moved[v] + a[:, :, 2]).mean(axis=0)
         return out
 
-    def run(
-        self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray, refine: bool = False
-    ) -> FitResult:
-        """Fit from the shape of ``(c0, t0)`` on a prepared ``image``.
+    def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
+        """Fit from the previous frame's landmarks."""
+        return self.run_from_shape(image, previous.points)
 
-        ``refine`` changes nothing here: the iteration stops when the steps
-        become negligible.
-        """
+    def run(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
+        """Fit from the shape of ``(c0, t0)`` on a prepared ``image``."""
+        return self.run_from_shape(image, self.residual.shape(c0, t0))
+
+    def run_from_shape(self, image: np.ndarray, shape: np.ndarray) -> FitResult:
+        """Fit from a start ``shape`` (N, 2) on a prepared ``image``."""
         shape_model = self.aam.shape
-        shape = self.residual.shape(c0, t0)
         b, t = shape_model.fit_points(shape)
         shape = apply_pose(t, shape_model.instance(b))
         errors, seconds = [], []
@@ -150,5 +160,5 @@ class ProjectOutInverseCompositional:
         g = self.residual.image_texture(image, shape)
         c = self.aam.combined.params(b, self.aam.texture.params(g.astype(np.float64)))
         points = shape
-        reason = failure_reason(c, self.aam.combined.limits(3.0), points)
+        reason = self.failure(c, points)
         return FitResult(points, c, t, error, iterations, bool(reason), reason, seconds, errors)

@@ -22,7 +22,7 @@ from aamcore.aam import AAM
 from aamcore.fitting.algorithm.project_out_ic import shape_basis
 from aamcore.fitting.features import FrameHog
 from aamcore.fitting.residuals import ResidualFunction, WarpFn
-from aamcore.fitting.result import FitResult, failure_reason
+from aamcore.fitting.result import FailureTest, FitResult
 from aamcore.similarity_params import apply_pose, invert_pose
 
 
@@ -63,21 +63,28 @@ class SupervisedDescent:
     cascade : DescentCascade
     warp : callable, optional
         Texture sampler ``warp(image, shape) -> (M,)`` for grey images.
+    failure : FailureTest, optional
+        The test of a failed fit (eq. 7.2 by default).
     """
 
     name = "supervised-descent"
 
-    def __init__(self, aam: AAM, cascade: DescentCascade, warp: WarpFn | None = None) -> None:
+    def __init__(
+        self,
+        aam: AAM,
+        cascade: DescentCascade,
+        warp: WarpFn | None = None,
+        failure: FailureTest | None = None,
+    ) -> None:
         self.aam = aam
         self.cascade = cascade
         self.residual = ResidualFunction(aam, warp)
+        self.failure = failure or FailureTest(aam.combined.pca.variances)
         self.features = FrameHog(aam.frame, cascade.hog_cell)
         self.basis = shape_basis(aam.shape.mean_shape, aam.shape.pca.components)
         self.weights = [np.ascontiguousarray(w, dtype=np.float32) for w in cascade.weights]
         self.texture_mean = aam.texture.mean.astype(np.float32)
         self.texture_components = np.ascontiguousarray(aam.texture.pca.components, np.float32)
-        # Tracking starts near the face: the first, coarse stages are skipped.
-        self.refine_from = min(2, max(len(self.weights) - 1, 0))
 
     def features_at(self, image: np.ndarray, shape: np.ndarray) -> np.ndarray:
         """Feature vector (D + 1,) with a trailing 1 for the bias."""
@@ -92,19 +99,23 @@ class SupervisedDescent:
         model = apply_pose(invert_pose(t), shape) + (self.basis @ dq).reshape(-1, 2)
         return apply_pose(t, model)
 
-    def run(
-        self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray, refine: bool = False
-    ) -> FitResult:
-        """Fit from the shape of ``(c0, t0)`` on a prepared ``image``.
+    def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
+        """Fit from the pose of the previous frame's fit.
 
-        ``refine`` (a start close to the face, as when tracking) runs only the
-        later stages of the cascade.
+        The mean shape placed where the previous landmarks were is the kind
+        of start the cascade learned from; starting from the previous
+        landmarks themselves would let each frame's small bias accumulate.
         """
+        _, t = self.aam.shape.fit_points(previous.points, iterations=1)
+        return self.run(image, np.zeros(self.aam.n_appearance), t)
+
+    def run(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
+        """Fit from the shape of ``(c0, t0)`` on a prepared ``image``."""
         shape_model = self.aam.shape
         shape = self.residual.shape(c0, t0)
         b, t = shape_model.fit_points(shape, iterations=2)
         seconds = []
-        for stage in range(self.refine_from if refine else 0, len(self.weights)):
+        for stage in range(len(self.weights)):
             start = time.perf_counter()
             target = self.step(image, shape, t, stage)
             if not np.all(np.isfinite(target)):
@@ -117,5 +128,5 @@ class SupervisedDescent:
         c = self.aam.combined.params(b, b_g.astype(np.float64))
         model_g = self.texture_mean + self.texture_components @ b_g
         error = float(np.mean((g - model_g) ** 2))
-        reason = failure_reason(c, self.aam.combined.limits(3.0), shape)
+        reason = self.failure(c, shape)
         return FitResult(shape, c, t, error, len(seconds), bool(reason), reason, seconds, [error])
