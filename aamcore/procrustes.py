@@ -69,17 +69,22 @@ def rotation_to(source: np.ndarray, target: np.ndarray) -> np.ndarray:
 
 
 def align_similarity(source: np.ndarray, target: np.ndarray) -> Similarity:
-    """Least-squares similarity mapping ``source`` (N, 2) onto ``target`` (N, 2)."""
+    """Least-squares similarity mapping ``source`` (N, 2) onto ``target`` (N, 2).
+
+    In 2D the optimum has a closed form (thesis eqs. 3.9, 3.10): with both
+    shapes centred, ``a = sum(x x' + y y') / |x|^2`` and
+    ``b = sum(x y' - y x') / |x|^2`` give ``scale R = [[a, -b], [b, a]]``;
+    it is the same transform as Algorithm 1's SVD, without the SVD.
+    """
     mu_s, mu_t = source.mean(axis=0), target.mean(axis=0)
     s_c, t_c = source - mu_s, target - mu_t
-    denom = float(np.sum(s_c**2))
+    denom = float(np.sum(s_c * s_c))
     if denom == 0:
         raise ValueError("degenerate source shape: all points coincide")
-    rot = rotation_to(s_c, t_c)
-    scale = float(np.sum((s_c @ rot.T) * t_c) / denom)
-    angle = float(np.arctan2(rot[1, 0], rot[0, 0]))
-    translation = mu_t - scale * (rot @ mu_s)
-    return Similarity(scale, angle, translation)
+    a = float(np.sum(s_c * t_c)) / denom
+    b = float(np.sum(s_c[:, 0] * t_c[:, 1] - s_c[:, 1] * t_c[:, 0])) / denom
+    linear = np.array([[a, -b], [b, a]])
+    return Similarity(float(np.hypot(a, b)), float(np.arctan2(b, a)), mu_t - linear @ mu_s)
 
 
 def procrustes_distance(a: np.ndarray, b: np.ndarray) -> float:

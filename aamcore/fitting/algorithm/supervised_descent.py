@@ -113,7 +113,10 @@ class SupervisedDescent:
         """Fit from the shape of ``(c0, t0)`` on a prepared ``image``."""
         shape_model = self.aam.shape
         shape = self.residual.shape(c0, t0)
-        b, t = shape_model.fit_points(shape, iterations=2)
+        if np.any(c0):
+            b, t = shape_model.fit_points(shape, iterations=2)
+        else:  # the mean shape placed by t0: nothing to fit
+            b, t = np.zeros(shape_model.n_modes), np.asarray(t0, dtype=np.float64)
         seconds = []
         for stage in range(len(self.weights)):
             start = time.perf_counter()
@@ -124,9 +127,10 @@ class SupervisedDescent:
             shape = apply_pose(t, shape_model.instance(b))
             seconds.append(time.perf_counter() - start)
         g = self.residual.image_texture(image, shape)
-        b_g = (g - self.texture_mean) @ self.texture_components
+        centred = g - self.texture_mean
+        b_g = centred @ self.texture_components
         c = self.aam.combined.params(b, b_g.astype(np.float64))
-        model_g = self.texture_mean + self.texture_components @ b_g
-        error = float(np.mean((g - model_g) ** 2))
+        # The texture model's residual: its components are orthonormal.
+        error = max(float(centred @ centred - b_g @ b_g), 0.0) / g.size
         reason = self.failure(c, shape)
         return FitResult(shape, c, t, error, len(seconds), bool(reason), reason, seconds, [error])
