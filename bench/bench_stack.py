@@ -132,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--loops", type=int, default=8, help="plays of the video, throughput")
     parser.add_argument("--latency-loops", type=int, default=3, help="plays, latency run")
-    parser.add_argument("--warp", choices=("gpu", "cpu"), default="gpu")
+    parser.add_argument("--warp", choices=("auto", "gpu", "cpu"), default="auto")
     parser.add_argument("--small-model", action="store_true",
                         help="the small test model (120 images) instead of the full LFPW one")
     parser.add_argument("--no-ar", action="store_true", help="leave the glasses renderer out")

@@ -61,7 +61,7 @@ class StackOptions:
     jpeg: int = 0
     window: int = 2
     max_frames: int = 0
-    warp: str = "gpu"
+    warp: str = "auto"
     algorithm: str | None = None
     model: str | None = None
     model_limit: int = 0

@@ -59,7 +59,8 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--jpeg", type=int, default=0, metavar="Q",
                    help="send frames as JPEG of quality Q instead of raw")
     p.add_argument("--max-frames", type=int, default=0, help="stop after N frames")
-    p.add_argument("--warp", choices=("gpu", "cpu"), default="gpu", help="fitter warp path")
+    p.add_argument("--warp", choices=("auto", "gpu", "cpu"), default="auto",
+                   help="fitter warp path (auto: GPU only on a hardware GL renderer)")
     p.add_argument("--algorithm", choices=ALGORITHMS,
                    help="fitting algorithm (default: the fitter service's)")
     p.add_argument("--model", help="AAM model file (default: cached, trained on first use)")

@@ -61,8 +61,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="how a failed fit is recognised: chi2 (Mahalanobis distance of "
                              "the appearance, default) or eq7.2 (any parameter beyond 3 sd, "
                              "the thesis's test, which flags many good fits of a large model)")
-    parser.add_argument("--warp", choices=("gpu", "cpu"), default="gpu",
-                        help="where the image warp runs (gpu falls back to cpu without GL)")
+    parser.add_argument("--warp", choices=("auto", "gpu", "cpu"), default="auto",
+                        help="where the image warp runs: auto (the GPU worker thread when "
+                             "the GL renderer is a real GPU, else the CPU), gpu (falls back "
+                             "to cpu without GL) or cpu")
     parser.add_argument("--detect-timeout", type=float, default=1.0,
                         help="seconds to wait for the detector service")
     parser.add_argument("--local-for", type=float, default=5.0,

@@ -263,18 +263,25 @@ def _log_fallback_once(reason: str) -> None:
         logger.warning("GL warp unavailable, using the CPU warp: %s", reason)
 
 
+SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swiftshader", "software")
+"""GL renderers that rasterise on the CPU: there the CPU warp is faster."""
+
+
 def make_warp(
-    aam: AAM, prefer: Literal["gpu", "cpu"] = "gpu", backend: str = "egl"
+    aam: AAM, prefer: Literal["auto", "gpu", "cpu"] = "auto", backend: str = "egl"
 ) -> tuple[Warp, Literal["gpu", "cpu"]]:
     """The warp a fitter should use for ``aam``, and which path it is.
 
     Parameters
     ----------
     aam : AAM
-    prefer : {"gpu", "cpu"}
+    prefer : {"auto", "gpu", "cpu"}
         ``"gpu"`` tries a :class:`GLWarpWorker` first and falls back to the
         CPU warp when no GL context can be made (the reason is logged once per
-        process); ``"cpu"`` uses the CPU warp directly.
+        process); ``"cpu"`` uses the CPU warp directly; ``"auto"`` uses the
+        GPU only when the GL renderer is a real GPU, not a software
+        rasteriser such as Mesa's llvmpipe, which warps slower than OpenCV on
+        the same cores.
     backend : str
         moderngl standalone backend for the GL context.
 
@@ -284,11 +291,18 @@ def make_warp(
         Has ``warp(image, shape)``, ``set_frame(image)`` and ``close()``.
     path : {"gpu", "cpu"}
     """
-    if prefer not in ("gpu", "cpu"):
-        raise ValueError(f"prefer must be 'gpu' or 'cpu', got {prefer!r}")
-    if prefer == "gpu":
+    if prefer not in ("auto", "gpu", "cpu"):
+        raise ValueError(f"prefer must be 'auto', 'gpu' or 'cpu', got {prefer!r}")
+    if prefer in ("auto", "gpu"):
         try:
-            return GLWarpWorker(aam.frame, aam.shape.n_points, backend), "gpu"
+            worker = GLWarpWorker(aam.frame, aam.shape.n_points, backend)
         except GLUnavailableError as exc:
             _log_fallback_once(str(exc))
+        else:
+            if prefer == "gpu" or not any(
+                name in worker.renderer.lower() for name in SOFTWARE_RENDERERS
+            ):
+                return worker, "gpu"
+            worker.close()
+            _log_fallback_once(f"software GL renderer {worker.renderer}: the CPU warp is faster")
     return CPUWarp(aam.warp), "cpu"

@@ -120,3 +120,16 @@ def test_make_warp_falls_back_to_the_cpu(imm_model, caplog: pytest.LogCaptureFix
         assert path == "cpu" and isinstance(warp, CPUWarp)
     reasons = [r.getMessage() for r in caplog.records if "fallback-test-backend" in r.getMessage()]
     assert len(reasons) == 1 and "using the CPU warp" in reasons[0]
+
+
+def test_auto_uses_the_cpu_on_a_software_renderer(imm_model) -> None:
+    from services.fitter.warp_worker import make_warp
+
+    warp, path = make_warp(imm_model, "auto")
+    try:
+        renderer = getattr(warp, "renderer", "")
+        software = "llvmpipe" in renderer or "cpu" in renderer
+        # Mesa's llvmpipe here: auto picks the CPU; on a real GPU it would pick the GPU.
+        assert path == ("cpu" if software else "gpu")
+    finally:
+        warp.close()
