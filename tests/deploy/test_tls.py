@@ -26,6 +26,7 @@ def tls_client(endpoint: str, identity: str | None, ca: str = "certs/ca.pem") ->
     cfg = config_from_file(ZENOH_DIR / "client-tls.json5", connect=[endpoint])
     cfg.insert_json5("transport/link/tls/root_ca_certificate", json.dumps(ca))
     if identity is None:
+        cfg.insert_json5("transport/link/tls/enable_mtls", "false")
         cfg.insert_json5("transport/link/tls/connect_certificate", "null")
         cfg.insert_json5("transport/link/tls/connect_private_key", "null")
     else:
