@@ -58,12 +58,13 @@ import numpy as np
 from proto import Header, Message, ProtoError, Status, decode, encode
 from proto.keys import TOPICS, alive_key, check_name, topic_key
 from proto.messages import STATES, Frame, Overlay
-from proto.zenoh_config import MODES, zenoh_config
+from proto.zenoh_config import MODES, config_from_file, zenoh_config
 
 ENV_STREAM = "AAMTRACK_STREAM"
 ENV_MODE = "AAMTRACK_ZENOH_MODE"
 ENV_LISTEN = "AAMTRACK_ZENOH_LISTEN"
 ENV_CONNECT = "AAMTRACK_ZENOH_CONNECT"
+ENV_CONFIG = "AAMTRACK_ZENOH_CONFIG"
 ENV_RESTARTS = "AAMTRACK_RESTARTS"
 """Set by a supervisor to the number of times it restarted the service."""
 DEFAULT_STREAM = "cam0"
@@ -92,12 +93,16 @@ class BusOptions:
     mode : {"peer", "client", "router"}
     listen, connect : tuple of str
         Zenoh endpoints such as ``"tcp/127.0.0.1:7447"``.
+    config_file : str
+        A Zenoh JSON5 configuration (e.g. ``deploy/zenoh/client-tls.json5``
+        for TLS); ``mode`` and any endpoints given here override its own.
     """
 
     stream: str = DEFAULT_STREAM
     mode: str = "peer"
     listen: tuple[str, ...] = ()
     connect: tuple[str, ...] = ()
+    config_file: str = ""
 
     def __post_init__(self) -> None:
         try:
@@ -115,6 +120,7 @@ class BusOptions:
             mode=os.environ.get(ENV_MODE, "peer"),
             listen=_env_list(ENV_LISTEN),
             connect=_env_list(ENV_CONNECT),
+            config_file=os.environ.get(ENV_CONFIG, ""),
         )
 
     @classmethod
@@ -126,6 +132,7 @@ class BusOptions:
             mode=args.mode or env.mode,
             listen=tuple(args.listen) if args.listen else env.listen,
             connect=tuple(args.connect) if args.connect else env.connect,
+            config_file=getattr(args, "zenoh_config", None) or env.config_file,
         )
 
     def argv(self) -> list[str]:
@@ -135,10 +142,15 @@ class BusOptions:
             out += ["--listen", endpoint]
         for endpoint in self.connect:
             out += ["--connect", endpoint]
+        if self.config_file:
+            out += ["--zenoh-config", self.config_file]
         return out
 
     def config(self) -> Any:
-        """The ``zenoh.Config`` (multicast scouting off, explicit endpoints)."""
+        """The ``zenoh.Config``: from ``config_file`` when given, else multicast
+        scouting off and the explicit endpoints."""
+        if self.config_file:
+            return config_from_file(self.config_file, self.mode, self.listen, self.connect)
         return zenoh_config(self.mode, self.listen, self.connect)
 
 
@@ -154,6 +166,11 @@ def add_bus_arguments(parser: argparse.ArgumentParser, verbose: bool = True) -> 
     group.add_argument(
         "--connect", action="append", metavar="ENDPOINT",
         help=f"zenoh endpoint to connect to, repeatable (env {ENV_CONNECT}, comma-separated)",
+    )
+    group.add_argument(
+        "--zenoh-config", metavar="FILE",
+        help=f"zenoh JSON5 configuration, e.g. TLS (env {ENV_CONFIG}); --mode and endpoints "
+        "given override it",
     )
     if verbose:
         group.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
