@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import importlib
 import logging
 import math
@@ -197,7 +198,7 @@ def _client_bus(args: argparse.Namespace) -> BusOptions:
 
     bus = BusOptions.from_args(args)
     if not bus.listen and not bus.connect:
-        bus = BusOptions(bus.stream, bus.mode, (), (DEFAULT_ENDPOINT,))
+        bus = dataclasses.replace(bus, connect=(DEFAULT_ENDPOINT,))
     return bus
 
 
