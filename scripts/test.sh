@@ -1,9 +1,4 @@
 #!/usr/bin/env bash
-# The test command: set up on a fresh machine, lint, then run the whole suite.
+# The README's test command: exactly what CI runs (.ci/run).
 set -euo pipefail
-cd "$(dirname "$0")/.."
-./scripts/setup.sh
-export OMP_NUM_THREADS=${OMP_NUM_THREADS:-1}
-export AAMTRACK_CACHE=${AAMTRACK_CACHE:-$HOME/.cache/aamtrack}
-.venv/bin/ruff check .
-.venv/bin/python -m pytest "$@"
+exec "$(dirname "$0")/../.ci/run" "$@"
