@@ -4,8 +4,11 @@ A classifier of appearance vectors ``c`` only makes sense for the AAM that
 produced them, so the cached file is named after the AAM file's fingerprint
 (a hash of its bytes) and records it (``ExpressionClassifier.aam_fingerprint``).
 Training fits the AAM to every JAFFE face found by the Haar detector and
-learns Fisher LDA with Mahalanobis classification (thesis chapter 9) on the
-fitted ``c``.
+learns a one-against-all RBF SVM on the hypersphere (thesis chapter 10, C and
+gamma chosen by cross-validation grouped by poser) on the fitted ``c``. On the
+stack's LFPW AAM, leave-one-poser-out over JAFFE gave 59.9 % for this
+classifier against 44.3 % for Fisher LDA + Mahalanobis (7 classes; the LDA
+wins only on the per-fold JAFFE AAMs of ``aamtrack eval expression``).
 """
 
 from __future__ import annotations
@@ -20,12 +23,13 @@ from aamcore.config import cache_dir
 from aamcore.datasets.jaffe import load_jaffe
 from aamcore.datasets.sample import DatasetError
 from aamcore.detection import HaarFaceDetector
-from aamcore.expression import ExpressionClassifier, FisherMahalanobis
+from aamcore.expression import ExpressionClassifier
+from aamcore.expression.svm import tune_svm
 from aamcore.fitting.fitter import Fitter
 from aamcore.model_file import load_model
 
 log = logging.getLogger("aamtrack.expression")
-TRAINING_VERSION = 1
+TRAINING_VERSION = 2
 """Bump when the training below changes, so that cached classifiers are retrained."""
 MIN_PER_CLASS = 5
 
@@ -38,7 +42,7 @@ def model_fingerprint(model_path: str | Path) -> str:
 
 def jaffe_appearance(
     model_path: str | Path, folder: str | Path | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Fitted appearance vectors of the JAFFE faces.
 
     Returns
@@ -47,11 +51,12 @@ def jaffe_appearance(
         Appearance parameters ``c`` of each face found and fitted to finite values.
     labels : (n,) array of str
         Its JAFFE class code.
+    posers : (n,) array of str
     """
     aam = load_model(model_path)
     fitter = Fitter(aam)
     detector = HaarFaceDetector()
-    rows, labels = [], []
+    rows, labels, posers = [], [], []
     data = load_jaffe(folder)
     for sample in data.samples:
         image = sample.load_image()
@@ -62,19 +67,20 @@ def jaffe_appearance(
         if np.all(np.isfinite(result.c)):
             rows.append(result.c)
             labels.append(sample.label)
+            posers.append(sample.poser)
     if not rows:
         raise DatasetError(f"no JAFFE face could be fitted in {data.root}")
-    return np.asarray(rows, np.float64), np.asarray(labels)
+    return np.asarray(rows, np.float64), np.asarray(labels), np.asarray(posers)
 
 
 def train_classifier(model_path: str | Path, folder: str | Path | None = None) -> (
         ExpressionClassifier):
-    """Fisher-Mahalanobis classifier of the AAM's appearance vectors on JAFFE."""
-    X, y = jaffe_appearance(model_path, folder)
+    """One-against-all SVM classifier of the AAM's appearance vectors on JAFFE."""
+    X, y, posers = jaffe_appearance(model_path, folder)
     names, counts = np.unique(y, return_counts=True)
     keep = np.isin(y, names[counts >= MIN_PER_CLASS])
-    estimator = FisherMahalanobis().fit(X[keep], y[keep])
-    info = {"training": "jaffe, AAM appearance c, Fisher LDA + Mahalanobis",
+    estimator = tune_svm(X[keep], y[keep], posers[keep], "ova")
+    info = {"training": "jaffe, AAM appearance c, RBF SVM one-against-all",
             "samples": int(keep.sum()), "training_version": TRAINING_VERSION,
             "model": Path(model_path).name}
     return ExpressionClassifier.from_estimator(estimator, model_fingerprint(model_path), info)
