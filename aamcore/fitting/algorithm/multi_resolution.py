@@ -65,5 +65,14 @@ class MultiResolution:
             iterations += result.iterations
         assert result is not None
         result.t = t
+        if len(self.levels) > 1:
+            # The coarse levels can also lead a near start astray: keep the
+            # full-resolution fit from the start itself when it explains the
+            # image better.
+            direct = self.levels[0].run(image, c0, t0)
+            seconds += direct.iteration_seconds
+            iterations += direct.iterations
+            if direct.error < result.error:
+                result = direct
         result.iteration_seconds, result.errors, result.iterations = seconds, errors, iterations
         return result
