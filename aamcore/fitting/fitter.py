@@ -1,9 +1,11 @@
-"""The fitter: a trained AAM, its update matrix and box mapping, one algorithm.
+"""The fitter: a trained AAM, what its algorithms learned, and one algorithm.
 
 :func:`prepare_fitting` adds to a freshly trained AAM what fitting needs (the
-update matrix and the box-to-shape mapping) so that both are saved in its
-model file; :class:`Fitter` then fits from a box, a start shape or previous
-parameters.
+box-to-shape mapping, the update matrices, the descent cascade) so that all is
+saved in its model file; :class:`Fitter` then fits from a box, a start shape,
+parameters or the previous frame's fit; :class:`Tracker` runs it frame to
+frame with re-detection; :func:`fitting_model_path` trains and caches the
+stack's model.
 """
 
 from __future__ import annotations
