@@ -35,7 +35,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=90, help="frames per sweep")
     parser.add_argument("--plot", type=Path, help="PNG of estimate against truth (yaw sweep)")
-    parser.add_argument("--subset", default="no_inner_mouth",
+    parser.add_argument("--subset", default="no_jaw",
                         help="landmarks POSIT uses (a rigid subset name of the head model, "
                              "or 'all')")
     args = parser.parse_args()
