@@ -24,24 +24,18 @@ from aamcore.config import data_root  # noqa: E402
 from aamcore.detection import HaarFaceDetector  # noqa: E402
 from aamcore.fitting.fitter import ALGORITHMS, Fitter, fitting_model_path  # noqa: E402
 from aamcore.model_file import load_model  # noqa: E402
+from aamcore.pose.tracked import video_frames  # noqa: E402
 
 
-def video_frames(path: str, size: tuple[int, int] = (640, 480)) -> list[np.ndarray]:
-    """Frames of a video, letterboxed into ``size``."""
-    capture = cv2.VideoCapture(path)
-    frames = []
-    while True:
-        ok, frame = capture.read()
-        if not ok:
-            break
-        canvas = np.zeros((size[1], size[0], 3), np.uint8)
-        h, w = frame.shape[:2]
-        scale = min(size[0] / w, size[1] / h)
-        frame = cv2.resize(frame, (int(w * scale), int(h * scale)))
-        y, x = (size[1] - frame.shape[0]) // 2, (size[0] - frame.shape[1]) // 2
-        canvas[y : y + frame.shape[0], x : x + frame.shape[1]] = frame
-        frames.append(canvas)
-    return frames
+def letterbox(frame: np.ndarray, size: tuple[int, int] = (640, 480)) -> np.ndarray:
+    """``frame`` scaled to fit ``size`` (width, height), centred on black."""
+    canvas = np.zeros((size[1], size[0], 3), np.uint8)
+    h, w = frame.shape[:2]
+    scale = min(size[0] / w, size[1] / h)
+    frame = cv2.resize(frame, (int(w * scale), int(h * scale)))
+    y, x = (size[1] - frame.shape[0]) // 2, (size[0] - frame.shape[1]) // 2
+    canvas[y : y + frame.shape[0], x : x + frame.shape[1]] = frame
+    return canvas
 
 
 def rate(seconds: list[float]) -> tuple[float, float]:
@@ -52,7 +46,7 @@ def rate(seconds: list[float]) -> tuple[float, float]:
 
 def main() -> None:
     cv2.setNumThreads(1)
-    frames = video_frames(str(data_root() / "videos" / "single_face.mp4"))
+    frames = [letterbox(f) for f in video_frames(data_root() / "videos" / "single_face.mp4")]
     aam = load_model(fitting_model_path())
     detector = HaarFaceDetector()
     det_times, boxes = [], []

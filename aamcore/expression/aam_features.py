@@ -37,14 +37,17 @@ class FittedFaces:
         as ``subject``.
     kept : (n,) int array
         Index of each kept face in the sample list given.
+    scheme : LandmarkScheme
+    appearance : (n, t_c) array
+        The fitter's own appearance parameters ``c`` of each kept face.
     errors : list of str
         One message per face left out, naming its file and why.
-    scheme : LandmarkScheme
     """
 
     samples: list[FaceSample]
     kept: np.ndarray
     scheme: LandmarkScheme
+    appearance: np.ndarray
     errors: list[str] = field(default_factory=list)
 
 
@@ -53,7 +56,7 @@ def fit_faces(
 ) -> FittedFaces:
     """Fit every sample's face from its Haar box; leave out (and list) faces without a good fit."""
     detector = detector or HaarFaceDetector(min_size=(48, 48))
-    fitted, kept, errors = [], [], []
+    fitted, kept, appearance, errors = [], [], [], []
     for i, sample in enumerate(samples):
         try:
             image = sample.load_image()
@@ -70,7 +73,9 @@ def fit_faces(
             continue
         fitted.append(FaceSample(sample.image_path, result.points, sample.poser))
         kept.append(i)
-    return FittedFaces(fitted, np.array(kept, dtype=np.int64), fitter.aam.scheme, errors)
+        appearance.append(result.c)
+    coded = np.array(appearance).reshape(len(appearance), fitter.aam.n_appearance)
+    return FittedFaces(fitted, np.array(kept, dtype=np.int64), fitter.aam.scheme, coded, errors)
 
 
 class AAMAppearanceFeatures:

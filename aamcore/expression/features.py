@@ -15,7 +15,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -23,21 +22,18 @@ from sklearn.decomposition import PCA
 
 from aamcore.datasets.jaffe import ExpressionSample
 from aamcore.datasets.sample import DatasetError
+from aamcore.detection import HaarFaceDetector
 
 CASCADE_NAME = "haarcascade_frontalface_alt2.xml"
 BASELINE_NAME = "pixel PCA baseline"
 
 
-def load_face_cascade() -> cv2.CascadeClassifier:
-    """The OpenCV frontal face Haar cascade (needs opencv 4.x, which ships it)."""
-    path = Path(cv2.data.haarcascades) / CASCADE_NAME
-    cascade = cv2.CascadeClassifier(str(path))
-    if cascade.empty():
-        raise RuntimeError(f"cannot load the Haar cascade {path}")
-    return cascade
+def face_detector() -> HaarFaceDetector:
+    """The detector of the baseline: ``alt2`` at scale step 1.1, faces from 48 px."""
+    return HaarFaceDetector(CASCADE_NAME, scale_factor=1.1, min_size=(48, 48))
 
 
-def detect_face(grey: np.ndarray, cascade: cv2.CascadeClassifier) -> tuple[int, int, int, int]:
+def detect_face(grey: np.ndarray, detector: HaarFaceDetector) -> tuple[int, int, int, int]:
     """Largest face box ``(x, y, w, h)`` in a grey image (H, W).
 
     Raises
@@ -45,12 +41,11 @@ def detect_face(grey: np.ndarray, cascade: cv2.CascadeClassifier) -> tuple[int, 
     ValueError
         If no face is found.
     """
-    min_side = max(24, min(grey.shape) // 5)
-    boxes = cascade.detectMultiScale(grey, 1.1, 3, minSize=(min_side, min_side))
+    boxes = detector.detect(grey)
     if len(boxes) == 0:
         raise ValueError("no face found by the Haar detector")
-    x, y, w, h = max(boxes, key=lambda b: b[2] * b[3])
-    return int(x), int(y), int(w), int(h)
+    x, y, w, h = (int(round(v)) for v in boxes[0])
+    return x, y, w, h
 
 
 def face_crop(
@@ -99,14 +94,14 @@ class FaceCrops:
 
 def crop_faces(samples: Sequence[ExpressionSample], size: int = 48, keep: float = 0.8) -> FaceCrops:
     """Detect, crop and equalise the face of every sample; samples without a face are listed."""
-    cascade = load_face_cascade()
+    detector = face_detector()
     rows: list[np.ndarray] = []
     kept: list[int] = []
     errors: list[str] = []
     for i, sample in enumerate(samples):
         try:
             grey = sample.load_image()
-            crop = face_crop(grey, detect_face(grey, cascade), size, keep)
+            crop = face_crop(grey, detect_face(grey, detector), size, keep)
         except (ValueError, DatasetError) as exc:
             errors.append(f"{sample.image_path}: {exc}")
             continue

@@ -22,14 +22,14 @@ import numpy as np
 from aamcore.config import cache_dir
 from aamcore.datasets.jaffe import load_jaffe
 from aamcore.datasets.sample import DatasetError
-from aamcore.detection import HaarFaceDetector
 from aamcore.expression import ExpressionClassifier
+from aamcore.expression.aam_features import fit_faces
 from aamcore.expression.svm import tune_svm
 from aamcore.fitting.fitter import Fitter
 from aamcore.model_file import load_model
 
 log = logging.getLogger("aamtrack.expression")
-TRAINING_VERSION = 2
+TRAINING_VERSION = 3
 """Bump when the training below changes, so that cached classifiers are retrained."""
 MIN_PER_CLASS = 5
 
@@ -43,34 +43,23 @@ def model_fingerprint(model_path: str | Path) -> str:
 def jaffe_appearance(
     model_path: str | Path, folder: str | Path | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Fitted appearance vectors of the JAFFE faces.
+    """Fitted appearance vectors of the JAFFE faces (:func:`fit_faces`).
+
+    Faces without a Haar detection or whose fit fails are left out.
 
     Returns
     -------
     X : (n, k) float64 array
-        Appearance parameters ``c`` of each face found and fitted to finite values.
+        Appearance parameters ``c`` of each face.
     labels : (n,) array of str
         Its JAFFE class code.
     posers : (n,) array of str
     """
-    aam = load_model(model_path)
-    fitter = Fitter(aam)
-    detector = HaarFaceDetector()
-    rows, labels, posers = [], [], []
     data = load_jaffe(folder)
-    for sample in data.samples:
-        image = sample.load_image()
-        boxes = detector.detect(image)
-        if len(boxes) == 0:
-            continue
-        result = fitter.fit_box(image, boxes[0])
-        if np.all(np.isfinite(result.c)):
-            rows.append(result.c)
-            labels.append(sample.label)
-            posers.append(sample.poser)
-    if not rows:
+    faces = fit_faces(data.samples, Fitter(load_model(model_path)))
+    if not faces.samples:
         raise DatasetError(f"no JAFFE face could be fitted in {data.root}")
-    return np.asarray(rows, np.float64), np.asarray(labels), np.asarray(posers)
+    return faces.appearance, data.labels()[faces.kept], data.posers()[faces.kept]
 
 
 def train_classifier(model_path: str | Path, folder: str | Path | None = None) -> (

@@ -15,7 +15,7 @@ from aamcore.expression.features import (
     crop_faces,
     detect_face,
     face_crop,
-    load_face_cascade,
+    face_detector,
 )
 
 
@@ -32,7 +32,7 @@ def test_every_jaffe_face_is_found_and_cropped(jaffe_set: JaffeSet) -> None:
 
 def test_face_box_is_central_and_face_sized(jaffe_set: JaffeSet) -> None:
     grey = jaffe_set.samples[0].load_image()
-    x, y, w, h = detect_face(grey, load_face_cascade())
+    x, y, w, h = detect_face(grey, face_detector())
     assert 100 <= w <= 220 and 100 <= h <= 220
     assert abs(x + w / 2 - 128) < 40 and abs(y + h / 2 - 128) < 50
 
