@@ -30,12 +30,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from aamcore import initialisation as init
 from aamcore.config import data_root
-from aamcore.datasets import AnnotatedSet, load_annotated_folder
-from aamcore.detection import HaarFaceDetector
-from aamcore.metrics import nme, summarise
-from aamcore.procrustes import generalised_procrustes
+from aamcore.detection import mapping as init
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.evaluation.metrics import nme, summarise
+from aamcore.io import AnnotatedSet, load_annotated_folder
+from aamcore.model.procrustes import generalised_procrustes
 
 FRAME = (640, 480)
 TARGETS = {
@@ -245,7 +245,7 @@ def main(argv: list[str] | None = None) -> int:
     nme_table("IMM (leave one subject out, 12 folds)", imm_err)
     nme_table("LFPW (80/20 split by sorted name)", lfpw_err)
     if args.ced is not None:
-        from aamcore.plots import save_ced_png
+        from aamcore.evaluation.plots import save_ced_png
 
         shown = ("learned, fallback if missed", "CoG", "oracle: best similarity, no rotation")
         curves = {f"IMM {k}": imm_err[k] for k in shown}

@@ -48,17 +48,17 @@ import cv2
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from aamcore.aam import AAM
 from aamcore.config import cache_dir, resolve_dataset
-from aamcore.datasets import FaceSample, load_annotated_folder
-from aamcore.detection import HaarFaceDetector
-from aamcore.fit_evaluation import haar_box
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.evaluation.fits import haar_box
+from aamcore.evaluation.metrics import nme, summarise
 from aamcore.fitting.fitter import Fitter, prepare_fitting
-from aamcore.landmarks import LandmarkScheme
-from aamcore.metrics import nme, summarise
-from aamcore.model_cache import cached_model
-from aamcore.model_file import load_model
-from aamcore.training import TrainConfig
+from aamcore.io import FaceSample, load_annotated_folder
+from aamcore.io.landmarks import LandmarkScheme
+from aamcore.model.aam import AAM
+from aamcore.model.cache import cached_model
+from aamcore.model.file import load_model
+from aamcore.model.training import TrainConfig
 
 RUNNER = Path(__file__).resolve().parent / "facemark_runner.py"
 REQUIREMENTS = ("opencv-contrib-python-headless>=4.10,<5", "numpy")

@@ -16,14 +16,14 @@ import numpy as np
 from bench_fit_lfpw import split_model
 
 from aamcore.config import data_root, resolve_dataset
-from aamcore.datasets import load_annotated_folder
-from aamcore.detection import HaarFaceDetector
-from aamcore.fit_evaluation import haar_box
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.evaluation.fits import haar_box
+from aamcore.evaluation.metrics import nme
 from aamcore.fitting.fitter import Fitter, Tracker, fitting_model_path
 from aamcore.fitting.result import FAILURE_TESTS
-from aamcore.metrics import nme
-from aamcore.model_file import load_model
-from aamcore.pose.tracked import video_frames
+from aamcore.io import load_annotated_folder
+from aamcore.io.video import video_frames
+from aamcore.model.file import load_model
 
 
 def lfpw_table() -> None:

@@ -44,8 +44,8 @@ import msgpack
 import numpy as np
 
 from aamcore.config import data_root
-from services.launcher import Stack, StackOptions, free_port
-from services.runtime import BusOptions, Service, alive_services
+from services.bus.runtime import BusOptions, Service, alive_services
+from services.stack.launcher import Stack, StackOptions, free_port
 
 MODEL_LIMIT = 120
 MODEL_IMAGES = 10

@@ -18,11 +18,11 @@ import time
 import numpy as np
 
 from aamcore.config import resolve_dataset
-from aamcore.datasets import load_annotated_folder
-from aamcore.fit_evaluation import failure_rates, format_failure_table, monte_carlo, summary
+from aamcore.detection.mapping import THESIS_OFFSETS
+from aamcore.evaluation.fits import failure_rates, format_failure_table, monte_carlo, summary
 from aamcore.fitting.fitter import ALGORITHMS, Fitter, prepare_fitting
-from aamcore.initialisation import THESIS_OFFSETS
-from aamcore.training import TrainConfig, train_aam
+from aamcore.io import load_annotated_folder
+from aamcore.model.training import TrainConfig, train_aam
 
 
 def worst(rates: dict, key: str, limit: float = 40.0) -> float:

@@ -16,12 +16,12 @@ import time
 from pathlib import Path
 
 from aamcore.config import cache_dir, resolve_dataset
-from aamcore.datasets import load_annotated_folder
-from aamcore.fit_evaluation import landmark_errors, summary
+from aamcore.evaluation.fits import landmark_errors, summary
+from aamcore.evaluation.plots import save_ced_png
 from aamcore.fitting.fitter import ALGORITHMS, Fitter, prepare_fitting
-from aamcore.model_file import ModelFileError, load_model, save_model
-from aamcore.plots import save_ced_png
-from aamcore.training import TrainConfig, train_aam
+from aamcore.io import load_annotated_folder
+from aamcore.model.file import ModelFileError, load_model, save_model
+from aamcore.model.training import TrainConfig, train_aam
 
 MODEL = "lfpw-split80-bench-v1.npz"
 

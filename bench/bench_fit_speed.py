@@ -21,10 +21,10 @@ import numpy as np  # noqa: E402
 from threadpoolctl import threadpool_limits  # noqa: E402
 
 from aamcore.config import data_root  # noqa: E402
-from aamcore.detection import HaarFaceDetector  # noqa: E402
+from aamcore.detection.haar import HaarFaceDetector  # noqa: E402
 from aamcore.fitting.fitter import ALGORITHMS, Fitter, fitting_model_path  # noqa: E402
-from aamcore.model_file import load_model  # noqa: E402
-from aamcore.pose.tracked import video_frames  # noqa: E402
+from aamcore.io.video import video_frames  # noqa: E402
+from aamcore.model.file import load_model  # noqa: E402
 
 
 def letterbox(frame: np.ndarray, size: tuple[int, int] = (640, 480)) -> np.ndarray:

@@ -27,13 +27,13 @@ import cv2
 import moderngl
 import numpy as np
 
-from aamcore.aam import AAM
+from aamcore.ar.renderer import GlassesRenderer
 from aamcore.config import resolve_dataset
-from aamcore.datasets import FaceSample, load_annotated_folder
-from aamcore.training import TrainConfig, train_aam
-from services.ar.renderer import GlassesRenderer
-from services.fitter.gl_warp import GLWarp
-from services.fitter.warp_worker import GLWarpWorker
+from aamcore.io import FaceSample, load_annotated_folder
+from aamcore.model.aam import AAM
+from aamcore.model.training import TrainConfig, train_aam
+from aamcore.warp.gl import GLWarp
+from aamcore.warp.worker import GLWarpWorker
 
 W, H = 640, 480
 REPEATS = 300

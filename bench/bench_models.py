@@ -18,9 +18,9 @@ import cv2
 import numpy as np
 
 from aamcore.config import resolve_dataset
-from aamcore.datasets import load_annotated_folder
-from aamcore.model_file import save_model
-from aamcore.training import TrainConfig, train_aam
+from aamcore.io import load_annotated_folder
+from aamcore.model.file import save_model
+from aamcore.model.training import TrainConfig, train_aam
 
 
 def bench_training() -> float:

@@ -19,12 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
+from aamcore.evaluation.tracking import track_frames
 from aamcore.fitting.fitter import Fitter, Tracker, fitting_model_path
-from aamcore.model_file import load_model
+from aamcore.model.file import load_model
 from aamcore.pose.evaluation import evaluate_pose_sequence, plot_pose_sequence
 from aamcore.pose.head_model import openface68
 from aamcore.pose.intrinsics import CameraIntrinsics
-from aamcore.pose.tracked import track_frames
 from aamcore.synth.head import synth_head
 from aamcore.synth.sequence import default_texture, render_sequence, sweep_poses
 

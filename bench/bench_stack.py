@@ -33,8 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from aamcore.config import data_root
-from services.launcher import Stack, StackOptions
-from services.recorder import load_messages
+from services.stack.launcher import Stack, StackOptions
+from services.stack.recorder import load_messages
 
 TARGET_FPS = 30.0
 TARGET_P99_MS = 50.0

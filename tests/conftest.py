@@ -39,7 +39,7 @@ def cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="session")
 def imm_set(imm_dir: Path):
-    from aamcore.datasets import load_annotated_folder
+    from aamcore.io import load_annotated_folder
 
     return load_annotated_folder(imm_dir)
 
@@ -47,7 +47,7 @@ def imm_set(imm_dir: Path):
 @pytest.fixture(scope="session")
 def imm_model(imm_set):
     """A small colour AAM trained on IMM subjects 01-09 (10-12 held out)."""
-    from aamcore.training import TrainConfig, train_aam
+    from aamcore.model.training import TrainConfig, train_aam
 
     train = [s for s in imm_set.samples if int(s.subject) <= 9]
     return train_aam(train, imm_set.scheme, TrainConfig(n_pixels=4000))

@@ -18,12 +18,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from aamcore.datasets import DatasetError, FaceSample
-from aamcore.datasets.jaffe import ExpressionSample
-from aamcore.detection import HaarFaceDetector
+from aamcore.detection.haar import HaarFaceDetector
 from aamcore.fitting.fitter import Fitter
-from aamcore.landmarks import LandmarkScheme
-from aamcore.training import TrainConfig, train_aam
+from aamcore.io import DatasetError, FaceSample
+from aamcore.io.jaffe import ExpressionSample
+from aamcore.io.landmarks import LandmarkScheme
+from aamcore.model.training import TrainConfig, train_aam
 
 
 @dataclass
@@ -81,7 +81,7 @@ def fit_faces(
 class AAMAppearanceFeatures:
     """Per-fold AAM appearance vectors ``c`` of fitted faces.
 
-    Inputs are :class:`~aamcore.datasets.FaceSample` objects with fitted
+    Inputs are :class:`~aamcore.io.FaceSample` objects with fitted
     landmarks (from :func:`fit_faces`).
 
     Parameters

@@ -23,7 +23,6 @@ from typing import Any
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from aamcore.datasets.jaffe import load_jaffe
 from aamcore.expression.aam_features import AAMAppearanceFeatures, fit_faces
 from aamcore.expression.classifier_file import ExpressionClassifier
 from aamcore.expression.evaluation import (
@@ -39,7 +38,8 @@ from aamcore.expression.labels import FIVE_CLASSES, SEVEN_CLASSES
 from aamcore.expression.report import format_confusion, save_confusion_png
 from aamcore.expression.svm import C_GRID, GAMMA_GRID
 from aamcore.fitting.fitter import Fitter, fitting_model_path
-from aamcore.model_file import load_model
+from aamcore.io.jaffe import load_jaffe
+from aamcore.model.file import load_model
 
 VARIANCES: tuple[float, ...] = (0.95, 0.97, 0.98, 0.99, 0.995, 0.999)
 """Kept-variance fractions of table 9.2."""

@@ -20,9 +20,9 @@ import cv2
 import numpy as np
 from sklearn.decomposition import PCA
 
-from aamcore.datasets.jaffe import ExpressionSample
-from aamcore.datasets.sample import DatasetError
-from aamcore.detection import HaarFaceDetector
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.io.jaffe import ExpressionSample
+from aamcore.io.sample import DatasetError
 
 CASCADE_NAME = "haarcascade_frontalface_alt2.xml"
 BASELINE_NAME = "pixel PCA baseline"

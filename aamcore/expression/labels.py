@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from aamcore.datasets.jaffe import JAFFE_CLASSES
+from aamcore.io.jaffe import JAFFE_CLASSES
 
 SEVEN_CLASSES: tuple[str, ...] = tuple(JAFFE_CLASSES)
 """Neutral, happiness, sadness, surprise, anger, fear, disgust (table 9.3 order)."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from aamcore.reference_frame import ReferenceFrame
+from aamcore.warp.reference_frame import ReferenceFrame
 
 
 class FrameHog:

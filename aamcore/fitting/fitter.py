@@ -15,33 +15,33 @@ from pathlib import Path
 
 import numpy as np
 
-from aamcore.aam import AAM
-from aamcore.datasets import FaceSample
-from aamcore.detection import HaarFaceDetector
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.detection.mapping import (
+    BoxToShapeMapping,
+    detect_all,
+    fit_box_to_shape,
+    match_detection,
+)
 from aamcore.fitting.algorithm import (
     FixedJacobian,
     MultiResolution,
     ProjectOutInverseCompositional,
     SupervisedDescent,
 )
-from aamcore.fitting.descent_training import attach_cascade, stored_cascade, train_descent
 from aamcore.fitting.residuals import WarpFn
 from aamcore.fitting.result import FailureTest, FitResult
-from aamcore.fitting.update_training import (
+from aamcore.fitting.training.descent import attach_cascade, stored_cascade, train_descent
+from aamcore.fitting.training.update import (
     attach_update,
     scheme_for_level,
     stored_levels,
     stored_update,
     train_update,
 )
-from aamcore.initialisation import (
-    BoxToShapeMapping,
-    detect_all,
-    fit_box_to_shape,
-    match_detection,
-)
-from aamcore.model_cache import cached_model
-from aamcore.training import TrainConfig
+from aamcore.io import FaceSample
+from aamcore.model.aam import AAM
+from aamcore.model.cache import cached_model
+from aamcore.model.training import TrainConfig
 
 ALGORITHMS = ("supervised-descent", "fixed-jacobian", "multi-resolution", "project-out-ic")
 

@@ -6,8 +6,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from aamcore.aam import AAM
-from aamcore.similarity_params import apply_pose
+from aamcore.model.aam import AAM
+from aamcore.model.similarity import apply_pose
 
 WarpFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
 

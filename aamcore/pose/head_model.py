@@ -252,7 +252,7 @@ _IMM_ANCHORS: dict[int, int] = {16: 36, 20: 39, 28: 42, 24: 45, 46: 48, 52: 54, 
 
 def _imm_mean_shape(folder: Path) -> np.ndarray:
     """Similarity-aligned mean of the IMM annotations in pixels of the first image, (73, 2)."""
-    from aamcore.datasets import load_annotated_folder
+    from aamcore.io import load_annotated_folder
 
     shapes = [s.points for s in load_annotated_folder(folder).samples]
     if not shapes or len(shapes[0]) != 73:

@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 from scipy.spatial import Delaunay
 
-from aamcore.datasets import load_annotated_folder, read_image
+from aamcore.io import load_annotated_folder, read_image
 from aamcore.pose.head_model import openface68
 from aamcore.pose.intrinsics import CameraIntrinsics
 from aamcore.synth.head import SynthHead

@@ -4,7 +4,7 @@
 
 For each reliable ``HeadPose`` the service takes the frame it belongs to
 (the latest few frames are kept), renders the glasses with
-:class:`~services.ar.renderer.GlassesRenderer` at the pose and intrinsics of
+:class:`~aamcore.ar.renderer.GlassesRenderer` at the pose and intrinsics of
 the message, with the head hiding what lies behind it, and publishes the
 result as an ``Overlay`` (raw, or JPEG with ``--jpeg``). The OpenGL (EGL)
 context is created in the thread that renders, the service's main thread. A
@@ -23,9 +23,9 @@ import cv2
 import moderngl
 import numpy as np
 
+from aamcore.ar.renderer import GlassesRenderer
 from proto import Frame, HeadPose, Overlay, ProtoError
-from services.ar.renderer import GlassesRenderer
-from services.runtime import BusOptions, Service, image_of, init_process, service_parser
+from services.bus.runtime import BusOptions, Service, image_of, init_process, service_parser
 
 NAME = "ar"
 FRAMES_KEPT = 8

@@ -20,7 +20,7 @@ from aamcore.expression.benchmark import (
 )
 from aamcore.expression.svm import SVM_GRIDS
 from aamcore.fitting.fitter import Fitter
-from aamcore.model_file import load_model
+from aamcore.model.file import load_model
 from services.cli.groups import eval_group
 
 FEATURE_KINDS = ("aam", "pixels")

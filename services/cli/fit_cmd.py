@@ -12,9 +12,9 @@ import cv2
 import numpy as np
 
 from aamcore.config import resolve_dataset
-from aamcore.datasets import load_annotated_folder, read_image
-from aamcore.detection import HaarFaceDetector
-from aamcore.fit_evaluation import (
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.detection.mapping import THESIS_OFFSETS
+from aamcore.evaluation.fits import (
     STARTS,
     failure_rates,
     format_failure_table,
@@ -23,11 +23,11 @@ from aamcore.fit_evaluation import (
     monte_carlo,
     summary,
 )
+from aamcore.evaluation.plots import save_ced_png
 from aamcore.fitting.fitter import ALGORITHMS, Fitter
-from aamcore.initialisation import THESIS_OFFSETS
-from aamcore.model_file import load_model
-from aamcore.plots import save_ced_png
-from aamcore.visualise import draw_shape
+from aamcore.io import load_annotated_folder, read_image
+from aamcore.model.file import load_model
+from aamcore.model.visualise import draw_shape
 from services.cli.groups import eval_group
 
 

@@ -8,9 +8,9 @@ from typing import Any
 
 import cv2
 
-from aamcore.datasets import read_asf, read_image, read_pts
-from aamcore.model_file import load_model, read_header
-from aamcore.visualise import modes_figure, reconstruction_figure
+from aamcore.io import read_asf, read_image, read_pts
+from aamcore.model.file import load_model, read_header
+from aamcore.model.visualise import modes_figure, reconstruction_figure
 
 
 def register(sub: argparse._SubParsersAction) -> None:

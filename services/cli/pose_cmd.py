@@ -104,7 +104,7 @@ def run_synth(args: argparse.Namespace) -> int:
 
     texture = None
     if args.photo is not None:
-        from aamcore.datasets import read_image, read_pts
+        from aamcore.io import read_image, read_pts
 
         if args.landmarks is None:
             raise ValueError("--photo needs --landmarks (its 68-point .pts file)")
@@ -206,9 +206,10 @@ def _fitted_sequence(
     args: argparse.Namespace, truths: list[Any], camera: CameraIntrinsics, model: HeadModel
 ) -> dict[str, Any]:
     """Pose errors of POSIT on tracked AAM fits of the sequence's frames."""
+    from aamcore.evaluation.tracking import track_frames
     from aamcore.fitting.fitter import Fitter, Tracker, fitting_model_path
-    from aamcore.model_file import load_model
-    from aamcore.pose.tracked import track_frames, video_frames
+    from aamcore.io.video import video_frames
+    from aamcore.model.file import load_model
     from aamcore.synth.sequence import render_sequence
 
     if args.sequence is not None:

@@ -1,12 +1,12 @@
 """Commands that run the stack or talk to it: ``run``, ``service``, ``echo``, ``record``.
 
 - ``aamtrack run --video FILE [--rrd out.rrd]``: the whole stack on one host
-  (:mod:`services.launcher`).
+  (:mod:`services.stack.launcher`).
 - ``aamtrack service NAME [ARGS...]``: one service alone, e.g. on another
   machine (``aamtrack service fitter --connect tcp/10.0.0.2:7447``).
 - ``aamtrack echo KEYEXPR``: print each message on a key expression, one line each.
 - ``aamtrack record --out FILE``: write every result message of a stream to a
-  file (:mod:`services.recorder`).
+  file (:mod:`services.stack.recorder`).
 """
 
 from __future__ import annotations
@@ -24,10 +24,10 @@ from typing import Any
 from aamcore.fitting.fitter import ALGORITHMS
 from proto import Message
 from proto.keys import TOPICS, status_wildcard, topic_key
-from services.recorder import IMAGE_KINDS, RESULT_KINDS, RecordWriter
-from services.runtime import BusOptions, Service, add_bus_arguments, init_process
+from services.bus.runtime import BusOptions, Service, add_bus_arguments, init_process
 from services.source.pacing import PACES
-from services.supervisor import SERVICE_MODULES
+from services.stack.recorder import IMAGE_KINDS, RESULT_KINDS, RecordWriter
+from services.stack.supervisor import SERVICE_MODULES
 
 log = logging.getLogger("aamtrack.cli")
 
@@ -105,7 +105,7 @@ def _register_echo(subparsers: argparse._SubParsersAction) -> None:
 def _register_record(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("record", help="record a stream's result messages to a file",
                               description="Write every fit, pose, expression, boxes, status "
-                              "and end-of-stream message to FILE (services.recorder).")
+                              "and end-of-stream message to FILE (services.stack.recorder).")
     p.add_argument("--out", required=True, help="recording file")
     p.add_argument("--frames", action="store_true", help="record frames too")
     p.add_argument("--overlays", action="store_true", help="record overlays too")
@@ -129,7 +129,7 @@ def _extra_args(items: list[str]) -> dict[str, list[str]]:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """``aamtrack run``."""
-    from services.launcher import StackOptions, run_stack
+    from services.stack.launcher import StackOptions, run_stack
 
     opts = StackOptions(
         video=args.video, camera=args.camera, url=args.url, stream=args.stream, pace=args.pace,
@@ -194,7 +194,7 @@ def describe(msg: Message) -> str:
 
 def _client_bus(args: argparse.Namespace) -> BusOptions:
     """The bus options of ``echo`` and ``record``: by default, connect where ``run`` listens."""
-    from services.launcher import DEFAULT_ENDPOINT
+    from services.stack.launcher import DEFAULT_ENDPOINT
 
     bus = BusOptions.from_args(args)
     if not bus.listen and not bus.connect:

@@ -9,11 +9,11 @@ from pathlib import Path
 from tqdm import tqdm
 
 from aamcore.config import cache_dir, resolve_dataset
-from aamcore.datasets import FaceSample, load_annotated_folder
 from aamcore.fitting.fitter import prepare_fitting
-from aamcore.model_cache import cache_key
-from aamcore.model_file import read_header, save_model
-from aamcore.training import TrainConfig, train_aam
+from aamcore.io import FaceSample, load_annotated_folder
+from aamcore.model.cache import cache_key
+from aamcore.model.file import read_header, save_model
+from aamcore.model.training import TrainConfig, train_aam
 from services.cli.model_cmd import print_summary
 
 

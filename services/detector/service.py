@@ -22,10 +22,10 @@ from typing import Any
 
 import numpy as np
 
-from aamcore.detection import HaarFaceDetector
+from aamcore.detection.haar import HaarFaceDetector
 from proto import FaceBoxes, Frame, ProtoError, encode
 from proto.keys import detect_key
-from services.runtime import BusOptions, Service, image_of, init_process, service_parser
+from services.bus.runtime import BusOptions, Service, image_of, init_process, service_parser
 
 NAME = "detector"
 

@@ -20,9 +20,9 @@ import time
 import numpy as np
 
 from aamcore.expression import AAMMismatchError, ClassifierFileError, ExpressionClassifier
+from aamcore.expression.training import model_fingerprint
 from proto import Expression, Fit
-from services.expression.models import model_fingerprint
-from services.runtime import BusOptions, Service, init_process, service_parser
+from services.bus.runtime import BusOptions, Service, init_process, service_parser
 
 NAME = "expression"
 

@@ -12,7 +12,7 @@ then asks the service again.
 
 Every frame taken gets a ``Fit``: a good one, a failed one (``failed`` with
 the reason), or ``failed`` with reason ``no face`` and no landmarks. The warp
-runs on the GPU worker thread (``services.fitter.warp_worker``) or the CPU;
+runs on the GPU worker thread (``aamcore.warp.worker``) or the CPU;
 each fit names the path in ``warp_path``.
 """
 
@@ -27,15 +27,22 @@ from typing import Any
 
 import numpy as np
 
-from aamcore.aam import AAM
-from aamcore.detection import HaarFaceDetector
+from aamcore.detection.haar import HaarFaceDetector
 from aamcore.fitting.fitter import ALGORITHMS, Fitter, Tracker, fitting_model_path
 from aamcore.fitting.result import FAILURE_TESTS, FitResult
-from aamcore.model_file import load_model
+from aamcore.model.aam import AAM
+from aamcore.model.file import load_model
+from aamcore.warp.worker import make_warp
 from proto import Fit, Frame, Header, ProtoError, decode, encode
 from proto.keys import detect_key
-from services.fitter.warp_worker import make_warp
-from services.runtime import BusOptions, Received, Service, image_of, init_process, service_parser
+from services.bus.runtime import (
+    BusOptions,
+    Received,
+    Service,
+    image_of,
+    init_process,
+    service_parser,
+)
 
 NAME = "fitter"
 DEFAULT_ALGORITHM = "fixed-jacobian"

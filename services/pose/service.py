@@ -25,7 +25,7 @@ from aamcore.pose.head_model import HeadModel, openface68
 from proto import Fit, HeadPose
 from proto.codec import decode
 from proto.limits import ProtoError
-from services.runtime import BusOptions, Service, init_process, service_parser
+from services.bus.runtime import BusOptions, Service, init_process, service_parser
 
 NAME = "pose"
 POSE_SUBSET = "no_jaw"

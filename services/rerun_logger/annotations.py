@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import rerun as rr
 
-from aamcore.landmarks import IBUG68, LandmarkScheme
+from aamcore.io.landmarks import IBUG68, LandmarkScheme
 
 GOOD_COLOUR = (40, 220, 90)
 FAILED_COLOUR = (235, 60, 50)

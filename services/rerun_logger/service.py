@@ -9,7 +9,7 @@ service, and logs them with :class:`~services.rerun_logger.dispatch.StreamLogger
   logger that cannot keep up skips video rather than falling behind; results
   are kept in deeper inboxes.
 - A message that does not decode is counted as rejected and its reason logged
-  once (:meth:`services.runtime.Service.reject`).
+  once (:meth:`services.bus.runtime.Service.reject`).
 - On end of stream the service goes on until nothing has arrived for
   ``--idle`` seconds (the results of the last frames come after the end of
   stream message), at most ``--grace`` seconds; on SIGTERM or SIGINT it stops
@@ -29,11 +29,11 @@ from aamcore.pose.errors import PoseError
 from aamcore.pose.head_model import HeadModel, openface68
 from proto.keys import status_wildcard
 from proto.messages import EndOfStream
+from services.bus.runtime import BusOptions, Inbox, Service, init_process, service_parser
 from services.rerun_logger.blueprint import build_blueprint
 from services.rerun_logger.dispatch import StreamLogger
 from services.rerun_logger.images import DEFAULT_QUALITY
 from services.rerun_logger.recording import open_recording
-from services.runtime import BusOptions, Inbox, Service, init_process, service_parser
 
 NAME = "rerun"
 """Service name: status on ``aamtrack/<stream>/status/rerun``."""

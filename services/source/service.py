@@ -21,7 +21,7 @@ import cv2
 import numpy as np
 
 from proto import EndOfStream, Frame
-from services.runtime import BusOptions, Service, init_process, service_parser
+from services.bus.runtime import BusOptions, Service, init_process, service_parser
 from services.source.capture import InputSpec, SourceError, VideoInput
 from services.source.pacing import PACES, CreditWindow, RealTimePacer
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from aamcore.config import resolve_dataset
-from aamcore.datasets import DatasetError, load_annotated_folder, read_asf, read_pts
+from aamcore.io import DatasetError, load_annotated_folder, read_asf, read_pts
 
 
 def test_imm_folder(imm_set) -> None:

@@ -4,7 +4,7 @@ import zipfile
 import numpy as np
 import pytest
 
-from aamcore.model_file import FORMAT_VERSION, ModelFileError, load_model, save_model
+from aamcore.model.file import FORMAT_VERSION, ModelFileError, load_model, save_model
 
 
 def test_round_trip_is_exact(imm_model, tmp_path) -> None:

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from aamcore.texture_model import normalise_texture
-from aamcore.training import TrainConfig, TrainingError, train_aam
+from aamcore.model.texture import normalise_texture
+from aamcore.model.training import TrainConfig, TrainingError, train_aam
 
 
 def _texture_error(aam, sample) -> float:

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from aamcore.pca import fit_pca, modes_for_variance
+from aamcore.model.pca import fit_pca, modes_for_variance
 
 
 def _shapes(imm_set) -> np.ndarray:

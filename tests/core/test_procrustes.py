@@ -1,6 +1,6 @@
 import numpy as np
 
-from aamcore.procrustes import (
+from aamcore.model.procrustes import (
     Similarity,
     align_similarity,
     generalised_procrustes,

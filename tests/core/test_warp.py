@@ -1,7 +1,7 @@
 import numpy as np
 from skimage.transform import PiecewiseAffineTransform, warp
 
-from aamcore.warp import render_texture
+from aamcore.warp.piecewise_affine import render_texture
 
 
 def test_warp_agrees_with_scikit_image(imm_model, imm_set) -> None:

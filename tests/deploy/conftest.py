@@ -186,8 +186,8 @@ def publish_until_received(publisher: Any, key: str, probe: Probe, tag: bytes,
 @pytest.fixture(scope="session")
 def models() -> dict[str, list[str]]:
     """Model arguments per service for the small cached LFPW AAM (trained on first use)."""
+    from aamcore.expression.training import classifier_path
     from aamcore.fitting.fitter import fitting_model_path
-    from services.expression.models import classifier_path
 
     path = fitting_model_path(max_images=MODEL_IMAGES, limit=MODEL_LIMIT)
     return {"fitter": ["--model", str(path)],

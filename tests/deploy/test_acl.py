@@ -14,7 +14,7 @@ import pytest
 from conftest import ZENOH_DIR, Probe, RouterProcess, publish_until_received, wait_until
 from test_tls import tls_client
 
-from services.launcher import free_port
+from services.stack.launcher import free_port
 
 KEY = "aamtrack/cam0/fit"
 

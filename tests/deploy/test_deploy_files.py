@@ -13,7 +13,7 @@ import zenoh
 from conftest import DEPLOY, ZENOH_DIR
 
 from proto.zenoh_config import config_from_file
-from services.supervisor import SERVICE_MODULES
+from services.stack.supervisor import SERVICE_MODULES
 
 MODES = {"peer.json5": "peer", "client.json5": "client", "router.json5": "router",
          "router-tls.json5": "router", "client-tls.json5": "client",

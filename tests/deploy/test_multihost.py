@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 from conftest import MODEL_IMAGES, MODEL_LIMIT, REPO_ROOT, RouterProcess, child_env
 
-from services.launcher import Stack, StackOptions, free_port
-from services.recorder import load_messages
+from services.stack.launcher import Stack, StackOptions, free_port
+from services.stack.recorder import load_messages
 
 RUN_TIMEOUT = 60.0
 LANDMARK_TOLERANCE_PX = 1.0

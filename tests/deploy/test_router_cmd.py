@@ -18,7 +18,7 @@ from conftest import (
 )
 
 from services.cli.router_cmd import DEFAULT_LISTEN, router_config
-from services.launcher import free_port
+from services.stack.launcher import free_port
 
 
 def test_two_clients_exchange_messages_only_through_the_router(

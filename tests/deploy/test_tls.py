@@ -17,7 +17,7 @@ import zenoh
 from conftest import ZENOH_DIR, Probe, RouterProcess, publish_until_received, wait_until
 
 from proto.zenoh_config import config_from_file
-from services.launcher import free_port
+from services.stack.launcher import free_port
 
 
 def tls_client(endpoint: str, identity: str | None, ca: str = "certs/ca.pem") -> Any:
@@ -128,7 +128,7 @@ def test_a_service_runs_over_mutual_tls_from_the_deploy_file(
     """``--zenoh-config deploy/zenoh/client-tls.json5``: a real service's status gets through."""
     from proto.codec import decode
     from proto.keys import status_key
-    from services.runtime import BusOptions, Service
+    from services.bus.runtime import BusOptions, Service
 
     endpoint = tls_router(True)
     config = pki / "service-client.json5"

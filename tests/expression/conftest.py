@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aamcore.datasets.jaffe import JaffeSet, load_jaffe
 from aamcore.expression.benchmark import PixelData, load_pixel_data
+from aamcore.io.jaffe import JaffeSet, load_jaffe
 
 FIVE_POSERS = ["KA", "KL", "KM", "KR", "MK"]
 

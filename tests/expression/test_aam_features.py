@@ -3,7 +3,7 @@ import numpy as np
 from aamcore.expression.aam_features import AAMAppearanceFeatures, fit_faces
 from aamcore.expression.evaluation import default_classifiers, leave_one_poser_out
 from aamcore.fitting.fitter import Fitter
-from aamcore.model_file import load_model
+from aamcore.model.file import load_model
 
 
 def test_fitted_faces_and_per_fold_appearance(jaffe_set, lfpw_fit_model_path) -> None:

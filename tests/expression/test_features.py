@@ -8,7 +8,6 @@ import cv2
 import numpy as np
 import pytest
 
-from aamcore.datasets.jaffe import JaffeSet, parse_jaffe_name
 from aamcore.expression.benchmark import PixelData
 from aamcore.expression.features import (
     PixelPCAFeatures,
@@ -17,6 +16,7 @@ from aamcore.expression.features import (
     face_crop,
     face_detector,
 )
+from aamcore.io.jaffe import JaffeSet, parse_jaffe_name
 
 
 def test_every_jaffe_face_is_found_and_cropped(jaffe_set: JaffeSet) -> None:

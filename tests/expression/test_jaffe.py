@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aamcore.datasets.jaffe import JAFFE_CLASSES, JaffeSet, load_jaffe, parse_jaffe_name
-from aamcore.datasets.sample import DatasetError
+from aamcore.io.jaffe import JAFFE_CLASSES, JaffeSet, load_jaffe, parse_jaffe_name
+from aamcore.io.sample import DatasetError
 
 
 def test_real_folder_has_213_images_of_10_posers_and_7_classes(jaffe_set: JaffeSet) -> None:

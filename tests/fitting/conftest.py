@@ -3,8 +3,8 @@ from pathlib import Path
 import pytest
 
 from aamcore.fitting.fitter import prepare_fitting
-from aamcore.model_file import load_model, save_model
-from aamcore.training import TrainConfig, train_aam
+from aamcore.model.file import load_model, save_model
+from aamcore.model.training import TrainConfig, train_aam
 
 
 @pytest.fixture(scope="session")

@@ -1,6 +1,6 @@
 import numpy as np
 
-from aamcore.fit_evaluation import (
+from aamcore.evaluation.fits import (
     failure_rates,
     format_failure_table,
     held_out,

@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 
+from aamcore.evaluation.metrics import nme
 from aamcore.fitting.algorithm import FixedJacobian
 from aamcore.fitting.fitter import Fitter, Tracker
-from aamcore.fitting.update_training import PerturbationScheme, train_update
-from aamcore.metrics import nme
+from aamcore.fitting.training.update import PerturbationScheme, train_update
 
 
 def _nme(result, sample, scheme) -> float:

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aamcore.datasets import AnnotatedSet, load_annotated_folder
-from aamcore.detection import HaarFaceDetector
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.io import AnnotatedSet, load_annotated_folder
 
 
 @pytest.fixture(scope="session")

@@ -8,9 +8,9 @@ import cv2
 import numpy as np
 import pytest
 
-from aamcore.datasets import AnnotatedSet, load_annotated_folder
-from aamcore.detection import DEFAULT_CASCADE, HaarFaceDetector, cascade_path, to_grey_uint8
-from aamcore.initialisation import box_iou
+from aamcore.detection.haar import DEFAULT_CASCADE, HaarFaceDetector, cascade_path, to_grey_uint8
+from aamcore.detection.mapping import box_iou
+from aamcore.io import AnnotatedSet, load_annotated_folder
 
 
 def _contains(box: np.ndarray, point: np.ndarray) -> bool:

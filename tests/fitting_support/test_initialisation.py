@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from aamcore import initialisation as init
-from aamcore.datasets import AnnotatedSet
-from aamcore.detection import HaarFaceDetector
-from aamcore.metrics import nme
-from aamcore.procrustes import generalised_procrustes
+from aamcore.detection import mapping as init
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.evaluation.metrics import nme
+from aamcore.io import AnnotatedSet
+from aamcore.model.procrustes import generalised_procrustes
 
 HELD_OUT = {"10", "11", "12"}
 

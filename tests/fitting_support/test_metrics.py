@@ -12,11 +12,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from aamcore import metrics
 from aamcore.config import data_root
-from aamcore.datasets import AnnotatedSet, load_annotated_folder
-from aamcore.landmarks import IBUG68, generic_scheme
-from aamcore.procrustes import Similarity
+from aamcore.evaluation import metrics
+from aamcore.io import AnnotatedSet, load_annotated_folder
+from aamcore.io.landmarks import IBUG68, generic_scheme
+from aamcore.model.procrustes import Similarity
 
 
 @pytest.fixture(scope="module")

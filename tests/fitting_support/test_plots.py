@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from aamcore.plots import save_ced_png, save_displacement_plot
+from aamcore.evaluation.plots import save_ced_png, save_displacement_plot
 
 
 def _read_back(path: Path) -> np.ndarray:

@@ -7,9 +7,9 @@ import moderngl
 import numpy as np
 import pytest
 
-from aamcore.reference_frame import ReferenceFrame
-from aamcore.warp import PiecewiseAffineWarp
-from services.fitter.gl_warp import GLWarp, grown_triangle_weights
+from aamcore.warp.gl import GLWarp, grown_triangle_weights
+from aamcore.warp.piecewise_affine import PiecewiseAffineWarp
+from aamcore.warp.reference_frame import ReferenceFrame
 
 # Tolerances: the GL texture unit weights with 8-bit fractions, cv2.remap with
 # 5-bit ones; measured on IMM: max 2, mean 0.17-0.19 grey levels.

@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from aamcore.pose.head_model import openface68
-from services.ar.glasses_mesh import (
+from aamcore.ar.glasses_mesh import (
     LENS_PARTS,
     OPAQUE_PARTS,
     GlassesDesign,
     build_glasses,
     mean_head_glasses,
 )
+from aamcore.pose.head_model import openface68
 
 
 @pytest.fixture(scope="module")

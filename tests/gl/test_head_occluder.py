@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from aamcore.pose.head_model import openface68
-from services.ar.glasses_mesh import mean_head_glasses
-from services.ar.head_occluder import (
+from aamcore.ar.glasses_mesh import mean_head_glasses
+from aamcore.ar.head_occluder import (
     MEDIAPIPE_TO_IBUG,
     SKULL_CENTRE,
     SKULL_RADII,
     build_head_occluder,
     mean_head_occluder,
 )
+from aamcore.pose.head_model import openface68
 
 
 @pytest.fixture(scope="module")

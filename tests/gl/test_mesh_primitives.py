@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from services.ar.mesh_primitives import (
+from aamcore.ar.mesh_primitives import (
     TriMesh,
     concatenate,
     ellipsoid,

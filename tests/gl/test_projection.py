@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from services.ar.projection import (
+from aamcore.ar.projection import (
     pose_matrix,
     project_points,
     projection_from_intrinsics,

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from scipy.ndimage import binary_dilation
 
+from aamcore.ar.glasses_mesh import OPAQUE_PARTS
+from aamcore.ar.projection import project_points
+from aamcore.ar.renderer import GlassesRenderer
 from aamcore.pose.head_model import openface68
-from services.ar.glasses_mesh import OPAQUE_PARTS
-from services.ar.projection import project_points
-from services.ar.renderer import GlassesRenderer
 
 W, H = 640, 480
 K = np.array([[800.0, 0.0, 319.5], [0.0, 800.0, 239.5], [0.0, 0.0, 1.0]])

@@ -8,7 +8,7 @@ import threading
 import numpy as np
 import pytest
 
-from services.fitter.warp_worker import CPUWarp, GLUnavailableError, GLWarpWorker, make_warp
+from aamcore.warp.worker import CPUWarp, GLUnavailableError, GLWarpWorker, make_warp
 
 MEAN_DIFF = 0.5  # grey levels; see test_gl_warp.py
 
@@ -114,7 +114,7 @@ def test_make_warp_prefers_the_gpu(imm_model, faces) -> None:
 
 
 def test_make_warp_falls_back_to_the_cpu(imm_model, caplog: pytest.LogCaptureFixture) -> None:
-    caplog.set_level(logging.WARNING, logger="services.fitter.warp_worker")
+    caplog.set_level(logging.WARNING, logger="aamcore.warp.worker")
     for _ in range(2):
         warp, path = make_warp(imm_model, prefer="gpu", backend="fallback-test-backend")
         assert path == "cpu" and isinstance(warp, CPUWarp)
@@ -123,7 +123,7 @@ def test_make_warp_falls_back_to_the_cpu(imm_model, caplog: pytest.LogCaptureFix
 
 
 def test_auto_uses_the_cpu_on_a_software_renderer(imm_model) -> None:
-    from services.fitter.warp_worker import make_warp
+    from aamcore.warp.worker import make_warp
 
     warp, path = make_warp(imm_model, "auto")
     try:

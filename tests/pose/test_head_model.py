@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aamcore.datasets import load_annotated_folder
+from aamcore.io import load_annotated_folder
 from aamcore.pose.errors import PoseError
 from aamcore.pose.head_model import (
     IBUG68_SUBSETS,

@@ -28,7 +28,7 @@ import rerun as rr
 from rerun.chunk import RrdReader
 from scipy.spatial.transform import Rotation
 
-from aamcore.datasets import FaceSample, load_annotated_folder
+from aamcore.io import FaceSample, load_annotated_folder
 from aamcore.pose.head_model import openface68
 from proto.header import Header
 from proto.messages import Expression, FaceBoxes, Fit, Frame, HeadPose, Message, Overlay

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from aamcore.landmarks import IBUG68
+from aamcore.io.landmarks import IBUG68
 from services.rerun_logger.annotations import (
     LandmarkClasses,
     class_description,

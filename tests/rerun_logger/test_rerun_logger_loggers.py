@@ -8,8 +8,8 @@ import cv2
 import numpy as np
 import pytest
 
-from aamcore.datasets import load_annotated_folder
-from aamcore.landmarks import IBUG68
+from aamcore.io import load_annotated_folder
+from aamcore.io.landmarks import IBUG68
 from aamcore.pose.head_model import openface68
 from proto.golden import golden_messages
 from proto.messages import EndOfStream, Fit

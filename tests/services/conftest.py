@@ -18,8 +18,8 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from services.launcher import StackOptions, free_port
-from services.runtime import BusOptions, Service
+from services.bus.runtime import BusOptions, Service
+from services.stack.launcher import StackOptions, free_port
 
 MODEL_LIMIT = 120
 """Training images of the small test AAM (cached after the first run)."""
@@ -52,14 +52,14 @@ def model_path() -> Path:
 @pytest.fixture(scope="session")
 def classifier_path(model_path: Path) -> Path:
     """The expression classifier for :func:`model_path` (trained on JAFFE on first use)."""
-    from services.expression.models import classifier_path as cached
+    from aamcore.expression.training import classifier_path as cached
 
     return cached(model_path)
 
 
 @pytest.fixture(scope="session")
 def models(model_path: Path, classifier_path: Path) -> dict[str, list[str]]:
-    """Model arguments per service, as :func:`services.launcher.prepare_models` gives them."""
+    """Model arguments per service, as :func:`services.stack.launcher.prepare_models` gives them."""
     return {"fitter": ["--model", str(model_path)],
             "expression": ["--model", str(model_path), "--classifier", str(classifier_path)]}
 

@@ -12,7 +12,7 @@ import pytest
 from aamcore.pose import CameraIntrinsics
 from proto import Frame, Header, HeadPose, decode, encode
 from services.ar.service import FRAMES_KEPT, Compositor, RecentFrames, overlay_message
-from services.runtime import BusOptions, Service, image_of
+from services.bus.runtime import BusOptions, Service, image_of
 
 
 @pytest.fixture(scope="module")

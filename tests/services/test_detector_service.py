@@ -15,7 +15,7 @@ import pytest
 
 from proto import Frame, decode, encode
 from proto.keys import detect_key
-from services.runtime import BusOptions, Service
+from services.bus.runtime import BusOptions, Service
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 

@@ -1,4 +1,4 @@
-"""services.expression.models: the classifier of the AAM in use, trained on JAFFE and cached."""
+"""aamcore.expression.training: the classifier of the AAM in use, trained on JAFFE and cached."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from aamcore.expression import ExpressionClassifier
-from aamcore.model_file import load_model
-from services.expression import models
+from aamcore.expression import training as models
+from aamcore.model.file import load_model
 
 
 def test_the_cached_classifier_belongs_to_the_model(

@@ -11,14 +11,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aamcore.datasets.jaffe import load_jaffe
-from aamcore.detection import HaarFaceDetector
+from aamcore.detection.haar import HaarFaceDetector
 from aamcore.fitting.fitter import Fitter
-from aamcore.model_file import load_model
+from aamcore.io.jaffe import load_jaffe
+from aamcore.model.file import load_model
 from proto import Fit, Header
 from proto.keys import status_key
+from services.bus.runtime import BusOptions, Service
 from services.expression.service import Smoother, expression_message, load_classifier
-from services.runtime import BusOptions, Service
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 

@@ -10,14 +10,14 @@ import cv2
 import numpy as np
 import pytest
 
-from aamcore.detection import HaarFaceDetector
+from aamcore.detection.haar import HaarFaceDetector
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.result import FitResult
-from aamcore.model_file import load_model
+from aamcore.model.file import load_model
+from aamcore.warp.worker import make_warp
 from proto import Header, decode, encode
+from services.bus.runtime import BusOptions, Service
 from services.fitter.service import NO_FACE, ServiceDetector, fit_message
-from services.fitter.warp_worker import make_warp
-from services.runtime import BusOptions, Service
 
 MEAN_TOLERANCE_PX = 1.0
 """Largest mean landmark distance between the GPU and CPU fits of one frame (the face is

@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 
 from proto import Fit, Frame, encode
-from services.launcher import Stack, StackOptions, free_port, module_exists
-from services.recorder import load_messages
-from services.runtime import BusOptions, Service
+from services.bus.runtime import BusOptions, Service
+from services.stack.launcher import Stack, StackOptions, free_port, module_exists
+from services.stack.recorder import load_messages
 
 HAVE_RERUN = module_exists("services.rerun_logger.service")
 RERUN_CLI = Path(sys.executable).with_name("rerun")

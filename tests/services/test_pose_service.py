@@ -9,11 +9,11 @@ import cv2
 import numpy as np
 import pytest
 
-from aamcore.datasets.pts import read_pts
+from aamcore.io.pts import read_pts
 from aamcore.pose.head_model import openface68
 from proto import Fit, Header, decode, encode
+from services.bus.runtime import BusOptions, Service
 from services.pose.service import Cameras, pose_message
-from services.runtime import BusOptions, Service
 
 
 def marked_face(data_dir: Path, name: str) -> tuple[np.ndarray, tuple[int, int]]:

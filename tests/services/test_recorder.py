@@ -1,4 +1,4 @@
-"""services.recorder: recordings written, read back, and damaged files named."""
+"""services.stack.recorder: recordings written, read back, and damaged files named."""
 
 from __future__ import annotations
 
@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 
 from proto import EndOfStream, Fit, Header, encode
-from services.recorder import MAGIC, RecordingError, RecordWriter, load_messages, read_payloads
+from services.stack.recorder import (
+    MAGIC,
+    RecordingError,
+    RecordWriter,
+    load_messages,
+    read_payloads,
+)
 
 
 def messages() -> list:

@@ -13,9 +13,9 @@ import numpy as np
 
 from proto import EndOfStream, Frame
 from proto.golden import golden_messages
+from services.bus.runtime import BusOptions, Service
 from services.cli.run_cmd import describe, record_keys
-from services.recorder import load_messages
-from services.runtime import BusOptions, Service
+from services.stack.recorder import load_messages
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 

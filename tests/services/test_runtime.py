@@ -1,4 +1,4 @@
-"""services.runtime: options, inboxes, rejection accounting, status and liveliness on a real bus."""
+"""services.bus.runtime: options, inboxes, rejection counts, status and liveliness on a real bus."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 
 from proto import EndOfStream, Frame, Header, ProtoError, encode
 from proto.keys import status_key
-from services.runtime import (
+from services.bus.runtime import (
     BusOptions,
     Service,
     add_bus_arguments,

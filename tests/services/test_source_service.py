@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from proto import EndOfStream, Frame
-from services.runtime import BusOptions, Service, image_of
+from services.bus.runtime import BusOptions, Service, image_of
 from services.source.service import frame_problem
 
 
@@ -71,7 +71,7 @@ def test_a_url_that_does_not_answer_fails_with_end_of_stream_and_exit_1(
     peer: Service, bus_pair: tuple[BusOptions, BusOptions],
     run_cli: Callable[..., subprocess.CompletedProcess[str]],
 ) -> None:
-    from services.launcher import free_port
+    from services.stack.launcher import free_port
 
     _, eos = collect(peer)
     done = run_cli(*source_argv(peer, bus_pair[1], "--url",

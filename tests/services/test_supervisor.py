@@ -1,10 +1,10 @@
-"""services.supervisor: spawned service processes, restarts with back-off, clean stops."""
+"""services.stack.supervisor: spawned service processes, restarts with back-off, clean stops."""
 
 from __future__ import annotations
 
 import time
 
-from services.supervisor import SERVICE_MODULES, ServiceSpec, Supervisor
+from services.stack.supervisor import SERVICE_MODULES, ServiceSpec, Supervisor
 
 SOURCE = SERVICE_MODULES["source"]
 

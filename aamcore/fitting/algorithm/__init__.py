@@ -2,7 +2,7 @@
 
 Every algorithm offers ``run(image, c0, t0) -> FitResult`` and
 ``track(image, previous: FitResult) -> FitResult`` on a prepared image (see
-:meth:`aamcore.aam.AAM.prepare_image`), with all costly precomputation in its
+:meth:`aamcore.model.aam.AAM.prepare_image`), with all costly precomputation in its
 constructor; ``track`` starts from the previous frame's fit in whatever way
 suits the algorithm (its parameters, its landmarks, or its pose).
 """

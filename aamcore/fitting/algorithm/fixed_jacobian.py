@@ -6,11 +6,11 @@ import time
 
 import numpy as np
 
-from aamcore.aam import AAM
 from aamcore.fitting.residuals import ResidualFunction, WarpFn
 from aamcore.fitting.result import FailureTest, FitResult
-from aamcore.fitting.update_training import UpdateMatrix
-from aamcore.similarity_params import compose_poses, invert_pose
+from aamcore.fitting.training.update import UpdateMatrix
+from aamcore.model.aam import AAM
+from aamcore.model.similarity import compose_poses, invert_pose
 
 # Step sizes: the full step first, then the alternatives of Algorithm 7.
 DAMPING = (1.0, 1.5, 0.5, 0.25, 0.125)
@@ -23,7 +23,7 @@ class FixedJacobian:
     ----------
     aam : AAM
     update : UpdateMatrix
-        ``R`` from :func:`aamcore.fitting.update_training.train_update`.
+        ``R`` from :func:`aamcore.fitting.training.update.train_update`.
     max_iterations : int
     warp : callable, optional
         Texture sampler ``warp(image, shape) -> (M, C)`` (CPU warp by default).

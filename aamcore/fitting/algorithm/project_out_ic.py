@@ -17,10 +17,10 @@ import time
 import numpy as np
 from scipy import ndimage
 
-from aamcore.aam import AAM
 from aamcore.fitting.residuals import ResidualFunction, WarpFn
 from aamcore.fitting.result import FailureTest, FitResult
-from aamcore.similarity_params import apply_pose
+from aamcore.model.aam import AAM
+from aamcore.model.similarity import apply_pose
 
 
 def shape_basis(mean: np.ndarray, modes: np.ndarray) -> np.ndarray:

@@ -18,12 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from aamcore.aam import AAM
 from aamcore.fitting.algorithm.project_out_ic import shape_basis
 from aamcore.fitting.features import FrameHog
 from aamcore.fitting.residuals import ResidualFunction, WarpFn
 from aamcore.fitting.result import FailureTest, FitResult
-from aamcore.similarity_params import apply_pose, invert_pose
+from aamcore.model.aam import AAM
+from aamcore.model.similarity import apply_pose, invert_pose
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,1 @@
+"""Training what the fitting algorithms learn: update matrices and descent cascades."""

@@ -1,0 +1,1 @@
+"""What every service process shares: its options, its Zenoh session, inboxes and counts."""

@@ -1,0 +1,1 @@
+"""The stack as a whole: its description, the launcher, the supervisor and recordings."""
