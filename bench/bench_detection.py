@@ -32,7 +32,9 @@ import numpy as np
 
 from aamcore.config import data_root
 from aamcore.detection import mapping as init
+from aamcore.detection.boxes import detect_all, landmark_box, match_detection
 from aamcore.detection.haar import HaarFaceDetector
+from aamcore.evaluation.fits import cog_start
 from aamcore.evaluation.metrics import nme, summarise
 from aamcore.io import AnnotatedSet, load_annotated_folder
 from aamcore.model.procrustes import generalised_procrustes
@@ -91,7 +93,7 @@ def time_detection(
 def detection_rate(dataset: AnnotatedSet, detections: list[np.ndarray]) -> float:
     """Fraction of samples with a detection matched to the landmarks."""
     hits = [
-        init.match_detection(boxes, s.points) is not None
+        match_detection(boxes, s.points) is not None
         for s, boxes in zip(dataset.samples, detections, strict=True)
     ]
     return float(np.mean(hits))
@@ -119,11 +121,11 @@ def start_errors(
     scheme = dataset.scheme
     for i in test:
         gt = shapes[i]
-        k = init.match_detection(detections[i], gt)
-        lm_start = mapping.place(init.landmark_box(gt), "landmarks")
+        k = match_detection(detections[i], gt)
+        lm_start = mapping.place(landmark_box(gt), "landmarks")
         errors["landmark box"].append(nme(lm_start, gt, scheme))
-        errors["CoG"].append(nme(init.cog_start(mapping, gt), gt, scheme))
-        best = init.apply_similarity(reference, *init.similarity_onto(reference, gt))
+        errors["CoG"].append(nme(cog_start(mapping, gt), gt, scheme))
+        best = init.similarity_onto(reference, gt).apply(reference)
         errors["oracle: best similarity, no rotation"].append(nme(best, gt, scheme))
         if k is None:
             errors["learned, fallback if missed"].append(errors["landmark box"][-1])
@@ -234,8 +236,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"data: {data_root()}  IMM {len(imm.samples)} images, LFPW {len(lfpw.samples)}")
 
     worst_ms = timing_table(detector, imm, lfpw)
-    imm_det = timed("IMM detections", lambda: init.detect_all(imm.samples, detector))
-    lfpw_det = timed("LFPW detections", lambda: init.detect_all(lfpw.samples, detector))
+    imm_det = timed("IMM detections", lambda: detect_all(imm.samples, detector))
+    lfpw_det = timed("LFPW detections", lambda: detect_all(lfpw.samples, detector))
     rates = {"IMM": detection_rate(imm, imm_det), "LFPW": detection_rate(lfpw, lfpw_det)}
     print("\n| detection rate | IMM | LFPW |\n|---|---|---|")
     print(f"| matched face | {rates['IMM']:.1%} | {rates['LFPW']:.1%} |")

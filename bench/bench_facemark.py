@@ -10,7 +10,7 @@ point error over the outer-eye-corner distance (iBUG 36 and 45). Both sides
 run on one thread.
 
 - aamtrack: ``train_aam(train, TrainConfig(colour=False,
-  shape_variance=0.98))`` then ``prepare_fitting(..., max_images=30)``,
+  shape_variance=0.98))`` then ``train_fitting_model(..., max_images=30)``,
   cached under ``cache_dir()`` keyed by the split; fitted with
   ``Fitter(aam, algorithm).fit_box(image, box)`` for ``supervised-descent``
   and ``fixed-jacobian``.
@@ -52,7 +52,8 @@ from aamcore.config import cache_dir, resolve_dataset
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.evaluation.fits import haar_box
 from aamcore.evaluation.metrics import nme, summarise
-from aamcore.fitting.fitter import Fitter, prepare_fitting
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.training.prepare import train_fitting_model
 from aamcore.io import FaceSample, load_annotated_folder
 from aamcore.io.landmarks import LandmarkScheme
 from aamcore.model.aam import AAM
@@ -115,7 +116,7 @@ def aamtrack_model(train: list[FaceSample], total: int) -> AAM:
         ]
 
     def prepare(aam: AAM, samples: list[FaceSample]) -> AAM:
-        return prepare_fitting(aam, samples, max_images=UPDATE_IMAGES)
+        return train_fitting_model(aam, samples, max_images=UPDATE_IMAGES)
 
     path = cached_model(
         "lfpw",

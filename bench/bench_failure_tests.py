@@ -19,8 +19,10 @@ from aamcore.config import data_root, resolve_dataset
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.evaluation.fits import haar_box
 from aamcore.evaluation.metrics import nme
-from aamcore.fitting.fitter import Fitter, Tracker, fitting_model_path
-from aamcore.fitting.result import FAILURE_TESTS
+from aamcore.fitting.failure import FAILURE_TESTS
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.tracker import Tracker
+from aamcore.fitting.training.prepare import default_model_path
 from aamcore.io import load_annotated_folder
 from aamcore.io.video import video_frames
 from aamcore.model.file import load_model
@@ -54,7 +56,7 @@ def lfpw_table() -> None:
 
 def video_table() -> None:
     frames = video_frames(data_root() / "videos" / "single_face.mp4")
-    aam = load_model(fitting_model_path())
+    aam = load_model(default_model_path())
     print(f"\nsingle_face.mp4, {len(frames)} frames tracked with the stack's model")
     print(f"{'algorithm':<20}{'test':<8}{'flagged':>9}{'detections':>12}")
     for algorithm in ("supervised-descent", "fixed-jacobian"):

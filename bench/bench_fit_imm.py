@@ -18,9 +18,16 @@ import time
 import numpy as np
 
 from aamcore.config import resolve_dataset
-from aamcore.detection.mapping import THESIS_OFFSETS
-from aamcore.evaluation.fits import failure_rates, format_failure_table, monte_carlo, summary
-from aamcore.fitting.fitter import ALGORITHMS, Fitter, prepare_fitting
+from aamcore.evaluation.fits import (
+    THESIS_OFFSETS,
+    failure_rates,
+    format_failure_table,
+    monte_carlo,
+    summary,
+)
+from aamcore.fitting.algorithm import ALGORITHMS
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.training.prepare import train_fitting_model
 from aamcore.io import load_annotated_folder
 from aamcore.model.training import TrainConfig, train_aam
 
@@ -47,7 +54,7 @@ def main() -> None:
         train = [s for s in data.samples if s.subject not in held]
         test = [s for s in data.samples if s.subject in held]
         aam = train_aam(train, data.scheme, TrainConfig(colour=False, shape_variance=0.98))
-        aam = prepare_fitting(aam, train)
+        aam = train_fitting_model(aam, train)
         fitter = Fitter(aam, args.algorithm)
         records += monte_carlo(fitter, test, offsets)
         print(f"fold {sorted(held)}: {len(test)} images done", flush=True)

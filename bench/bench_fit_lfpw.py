@@ -18,7 +18,9 @@ from pathlib import Path
 from aamcore.config import cache_dir, resolve_dataset
 from aamcore.evaluation.fits import landmark_errors, summary
 from aamcore.evaluation.plots import save_ced_png
-from aamcore.fitting.fitter import ALGORITHMS, Fitter, prepare_fitting
+from aamcore.fitting.algorithm import ALGORITHMS
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.training.prepare import train_fitting_model
 from aamcore.io import load_annotated_folder
 from aamcore.model.file import ModelFileError, load_model, save_model
 from aamcore.model.training import TrainConfig, train_aam
@@ -35,7 +37,7 @@ def split_model(train, scheme):
         pass
     start = time.perf_counter()
     aam = train_aam(train, scheme, TrainConfig(colour=False, shape_variance=0.98))
-    aam = prepare_fitting(aam, train, max_images=30)
+    aam = train_fitting_model(aam, train, max_images=30)
     save_model(aam, path)
     print(f"trained and cached {path} in {time.perf_counter() - start:.0f} s")
     return aam

@@ -22,7 +22,9 @@ from threadpoolctl import threadpool_limits  # noqa: E402
 
 from aamcore.config import data_root  # noqa: E402
 from aamcore.detection.haar import HaarFaceDetector  # noqa: E402
-from aamcore.fitting.fitter import ALGORITHMS, Fitter, fitting_model_path  # noqa: E402
+from aamcore.fitting.algorithm import ALGORITHMS
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
 from aamcore.io.video import video_frames  # noqa: E402
 from aamcore.model.file import load_model  # noqa: E402
 
@@ -47,7 +49,7 @@ def rate(seconds: list[float]) -> tuple[float, float]:
 def main() -> None:
     cv2.setNumThreads(1)
     frames = [letterbox(f) for f in video_frames(data_root() / "videos" / "single_face.mp4")]
-    aam = load_model(fitting_model_path())
+    aam = load_model(default_model_path())
     detector = HaarFaceDetector()
     det_times, boxes = [], []
     for frame in frames:

@@ -20,8 +20,10 @@ from pathlib import Path
 import numpy as np
 
 from aamcore.evaluation.tracking import track_frames
-from aamcore.fitting.fitter import Fitter, Tracker, fitting_model_path
-from aamcore.model.file import load_model
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
+from aamcore.fitting.tracker import Tracker
+from aamcore.fitting.training.prepare import default_model_path
 from aamcore.pose.evaluation import evaluate_pose_sequence, plot_pose_sequence
 from aamcore.pose.head_model import openface68
 from aamcore.pose.intrinsics import CameraIntrinsics
@@ -43,7 +45,7 @@ def main() -> None:
     head = synth_head()
     texture = default_texture(head)
     # The failure test of the stack's fitter service.
-    tracker = Tracker(Fitter(load_model(fitting_model_path()), failure_test="chi2"))
+    tracker = Tracker(Fitter(FittingModel.load(default_model_path()), failure_test="chi2"))
     model = openface68(rigid_subset=False if args.subset == "all" else args.subset)
     landmarks, truths, fit_errors, flagged = [], [], [], 0
     per_sweep = {}

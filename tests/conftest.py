@@ -56,6 +56,6 @@ def imm_model(imm_set):
 @pytest.fixture(scope="session")
 def lfpw_fit_model_path() -> Path:
     """A small 68-point model ready for fitting: the first 150 LFPW images, cached."""
-    from aamcore.fitting.fitter import fitting_model_path
+    from aamcore.fitting.training.prepare import default_model_path
 
-    return fitting_model_path(limit=150, max_images=10)
+    return default_model_path(limit=150, max_images=10)

@@ -14,8 +14,6 @@ rotation is fitted. The same is learned from the landmark box (the tight box
 of the ground-truth points), the fallback when the detector finds nothing, or
 to re-start from a previous frame's fitted shape.
 
-It also gives the thesis's two Monte Carlo starts (section 7.3): the
-"centre of gravity" start and starts displaced along x or y.
 """
 
 from __future__ import annotations
@@ -27,38 +25,16 @@ from typing import Any, Literal
 
 import numpy as np
 
-from aamcore.detection.haar import HaarFaceDetector
-from aamcore.io import FaceSample
+from aamcore.detection.boxes import as_box, landmark_box, match_detection
+from aamcore.io.landmarks import as_points
 from aamcore.model.procrustes import align_similarity
+from aamcore.model.similarity import Similarity
 
 BoxSource = Literal["detector", "landmarks"]
 
-THESIS_OFFSETS: tuple[int, ...] = tuple(
-    sorted({s * v for v in (0, 1, 3, 5, 10, 15, 20, 25, 30, 35, 40, 45, 50) for s in (-1, 1)})
-)
-"""Displacements in pixels of the thesis's Monte Carlo runs (tables 7.1, 7.2)."""
-
-
-def _as_points(points: np.ndarray, name: str = "points") -> np.ndarray:
-    arr = np.asarray(points, dtype=np.float64)
-    if arr.ndim != 2 or arr.shape[1] != 2 or len(arr) == 0:
-        raise ValueError(f"{name} must have shape (N, 2), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} holds NaN or infinite values")
-    return arr
-
-
-def _as_box(box: np.ndarray) -> np.ndarray:
-    arr = np.asarray(box, dtype=np.float64).reshape(-1)
-    if arr.shape != (4,) or not np.all(np.isfinite(arr)):
-        raise ValueError(f"box must be 4 finite numbers x, y, w, h, got {box!r}")
-    if arr[2] <= 0 or arr[3] <= 0:
-        raise ValueError(f"box width and height must be positive, got {arr.tolist()}")
-    return arr
-
 
 def _check_reference(reference: np.ndarray) -> np.ndarray:
-    ref = _as_points(reference, "reference shape")
+    ref = as_points(reference, "reference shape")
     size = float(np.sqrt(np.mean(np.sum(ref**2, axis=1))))
     if size == 0.0:
         raise ValueError("reference shape has all points at one place")
@@ -69,53 +45,9 @@ def _check_reference(reference: np.ndarray) -> np.ndarray:
     return ref
 
 
-def landmark_box(points: np.ndarray) -> np.ndarray:
-    """Tight bounding box ``(4,)`` ``x, y, w, h`` of ``points`` of shape (N, 2)."""
-    pts = _as_points(points)
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    return np.array([lo[0], lo[1], hi[0] - lo[0], hi[1] - lo[1]])
-
-
-def box_iou(a: np.ndarray, b: np.ndarray) -> float:
-    """Intersection over union of two boxes ``x, y, w, h``."""
-    ix = max(0.0, min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0]))
-    iy = max(0.0, min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1]))
-    inter = ix * iy
-    union = a[2] * a[3] + b[2] * b[3] - inter
-    return float(inter / union) if union > 0 else 0.0
-
-
-def match_detection(boxes: np.ndarray, points: np.ndarray) -> int | None:
-    """Pick the detection that belongs to a ground-truth face.
-
-    Parameters
-    ----------
-    boxes : (K, 4) array
-        Detections ``x, y, w, h``.
-    points : (N, 2) array
-        Ground-truth landmarks.
-
-    Returns
-    -------
-    int or None
-        Index of the detection whose centre lies inside the landmark box,
-        with the largest IoU with it if several do; None if none does.
-    """
-    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
-    gt = landmark_box(points)
-    best, best_iou = None, -1.0
-    for k, box in enumerate(boxes):
-        cx, cy = box[0] + box[2] / 2, box[1] + box[3] / 2
-        inside = gt[0] <= cx <= gt[0] + gt[2] and gt[1] <= cy <= gt[1] + gt[3]
-        iou = box_iou(box, gt)
-        if inside and iou > best_iou:
-            best, best_iou = k, iou
-    return best
-
-
 def similarity_onto(
     reference: np.ndarray, points: np.ndarray, with_rotation: bool = False
-) -> tuple[float, float, float, float]:
+) -> Similarity:
     """Least-squares similarity putting a centred reference shape on ``points``.
 
     Minimises ``sum_j |s R(theta) ref_j + t - points_j|^2``; without rotation,
@@ -129,28 +61,18 @@ def similarity_onto(
 
     Returns
     -------
-    scale, rotation, tx, ty : float
-        Rotation in radians, counter-clockwise in ``(x, y)`` axes.
+    Similarity
     """
     ref = _check_reference(reference)
-    pts = _as_points(points)
+    pts = as_points(points)
     if pts.shape != ref.shape:
         raise ValueError(f"points shape {pts.shape} differs from reference {ref.shape}")
     if with_rotation:
-        sim = align_similarity(ref, pts)
-        return sim.scale, sim.angle, float(sim.translation[0]), float(sim.translation[1])
+        return align_similarity(ref, pts)
     # With the reference centred, t is the centroid and s the projection of points on ref.
     t = pts.mean(axis=0)
-    return float(np.sum(ref * (pts - t)) / np.sum(ref**2)), 0.0, float(t[0]), float(t[1])
-
-
-def apply_similarity(
-    reference: np.ndarray, scale: float, rotation: float, tx: float, ty: float
-) -> np.ndarray:
-    """Return ``scale * R(rotation) @ reference + (tx, ty)``, shape (N, 2)."""
-    c, s = math.cos(rotation), math.sin(rotation)
-    rot = np.array([[c, -s], [s, c]]) * scale
-    return np.asarray(reference, dtype=np.float64) @ rot.T + np.array([tx, ty])
+    return Similarity(float(np.sum(ref * (pts - t)) / np.sum(ref**2)), 0.0, float(t[0]),
+                      float(t[1]))
 
 
 @dataclass(frozen=True)
@@ -173,15 +95,16 @@ class BoxMapping:
     rotation: float = 0.0
     with_rotation: bool = False
 
-    def transform(self, box: np.ndarray) -> tuple[float, float, float, float]:
-        """Similarity ``(scale, rotation, tx, ty)`` for a box ``x, y, w, h``."""
-        x, y, w, h = _as_box(box)
+    def transform(self, box: np.ndarray) -> Similarity:
+        """The similarity placing the reference shape on a box ``x, y, w, h``."""
+        x, y, w, h = as_box(box)
         cx, cy = x + w / 2, y + h / 2
-        return self.a * w, self.rotation, cx + self.b * w, cy + self.c * w
+        return Similarity.from_scale_angle(self.a * w, self.rotation,
+                                           (cx + self.b * w, cy + self.c * w))
 
     def place(self, reference: np.ndarray, box: np.ndarray) -> np.ndarray:
         """Put the (N, 2) reference shape on ``box``; returns (N, 2) points."""
-        return apply_similarity(reference, *self.transform(box))
+        return self.transform(box).apply(reference)
 
     @classmethod
     def naive(cls, reference: np.ndarray) -> BoxMapping:
@@ -288,9 +211,10 @@ def _relative_params(
         )
     rows = []
     for box, shape in zip(boxes, shapes, strict=True):
-        x, y, w, h = _as_box(box)
-        s, theta, tx, ty = similarity_onto(reference, shape, with_rotation)
-        rows.append([s / w, (tx - x - w / 2) / w, (ty - y - h / 2) / w, theta])
+        x, y, w, h = as_box(box)
+        sim = similarity_onto(reference, shape, with_rotation)
+        rows.append([sim.scale / w, (sim.tx - x - w / 2) / w, (sim.ty - y - h / 2) / w,
+                     sim.angle if with_rotation else 0.0])
     return np.array(rows)
 
 
@@ -336,10 +260,8 @@ class BoxToShapeMapping:
         """
         return self.mapping(source).place(self.reference, box)
 
-    def transform(
-        self, box: np.ndarray, source: BoxSource = "detector"
-    ) -> tuple[float, float, float, float]:
-        """Similarity ``(scale, rotation, tx, ty)`` that :meth:`place` applies."""
+    def transform(self, box: np.ndarray, source: BoxSource = "detector") -> Similarity:
+        """The similarity that :meth:`place` applies."""
         return self.mapping(source).transform(box)
 
     def mapping(self, source: BoxSource) -> BoxMapping:
@@ -396,11 +318,6 @@ class BoxToShapeMapping:
             raise ValueError(f"box-to-shape JSON lacks the key {exc}") from exc
 
 
-def detect_all(samples: Sequence[FaceSample], detector: HaarFaceDetector) -> list[np.ndarray]:
-    """Run the detector on every sample's image; one (K, 4) array per sample."""
-    return [detector.detect(sample.load_image()) for sample in samples]
-
-
 def fit_box_to_shape(
     reference: np.ndarray,
     shapes: Sequence[np.ndarray],
@@ -428,7 +345,7 @@ def fit_box_to_shape(
         raise ValueError(f"{len(shapes)} shapes but {len(detections)} detection lists")
     if len(shapes) == 0:
         raise ValueError("no training shapes")
-    stack = np.stack([_as_points(s) for s in shapes])
+    stack = np.stack([as_points(s) for s in shapes])
     matched = [match_detection(d, s) for d, s in zip(detections, stack, strict=True)]
     hit = [k for k, m in enumerate(matched) if m is not None]
     if not hit:
@@ -448,113 +365,3 @@ def fit_box_to_shape(
             "landmarks": landmarks.residuals(reference, lm_boxes, stack),
         },
     )
-
-
-def learn_box_to_shape(
-    samples: Sequence[FaceSample],
-    reference: np.ndarray,
-    detector: HaarFaceDetector | None = None,
-    fit_rotation: bool = False,
-) -> BoxToShapeMapping:
-    """Detect faces in ``samples`` and learn the box-to-shape mapping.
-
-    Parameters
-    ----------
-    samples : sequence of FaceSample
-        Training images with landmarks.
-    reference : (N, 2) array, centred at the origin
-        The model's mean shape.
-    detector : HaarFaceDetector, optional
-        Defaults to ``HaarFaceDetector()``; use the one the tracker will use.
-    fit_rotation : bool
-        Also fit a constant rotation.
-    """
-    detector = detector or HaarFaceDetector()
-    detections = detect_all(samples, detector)
-    return fit_box_to_shape(reference, [s.points for s in samples], detections, fit_rotation)
-
-
-def start_shape(
-    mapping: BoxToShapeMapping, detections: np.ndarray, fallback_box: np.ndarray | None = None
-) -> tuple[np.ndarray, BoxSource] | None:
-    """Start shape from the largest detection, else from a fallback landmark box.
-
-    Parameters
-    ----------
-    mapping : BoxToShapeMapping
-    detections : (K, 4) array
-        Detector boxes, largest first (as :meth:`HaarFaceDetector.detect` gives).
-    fallback_box : (4,) array, optional
-        Landmark box to use when there is no detection.
-
-    Returns
-    -------
-    (start, source) or None
-        The (N, 2) start shape and which box it came from; None when there is
-        neither a detection nor a fallback.
-    """
-    boxes = np.asarray(detections, dtype=np.float64).reshape(-1, 4)
-    if len(boxes):
-        return mapping.place(boxes[0], "detector"), "detector"
-    if fallback_box is not None:
-        return mapping.place(fallback_box, "landmarks"), "landmarks"
-    return None
-
-
-def cog_start(
-    mapping: BoxToShapeMapping, points: np.ndarray, box: np.ndarray | None = None
-) -> np.ndarray:
-    """The thesis's centre-of-gravity start (section 7.3).
-
-    The reference shape scaled (and rotated) as the mapping says and centred
-    on the centroid of the ground-truth ``points``.
-
-    Parameters
-    ----------
-    mapping : BoxToShapeMapping
-    points : (N, 2) array
-        Ground-truth landmarks.
-    box : (4,) array, optional
-        A detector box giving the scale; by default the scale comes from the
-        landmark box of ``points`` through the fallback mapping.
-
-    Returns
-    -------
-    (N, 2) array
-    """
-    pts = _as_points(points)
-    if box is None:
-        scale, rotation, _, _ = mapping.transform(landmark_box(pts), "landmarks")
-    else:
-        scale, rotation, _, _ = mapping.transform(box, "detector")
-    centre = pts.mean(axis=0)
-    return apply_similarity(mapping.reference, scale, rotation, centre[0], centre[1])
-
-
-def displace(shape: np.ndarray, dx: float = 0.0, dy: float = 0.0) -> np.ndarray:
-    """Translate an (N, 2) shape by ``(dx, dy)`` pixels; returns a new array."""
-    return _as_points(shape, "shape") + np.array([dx, dy], dtype=np.float64)
-
-
-def displaced_starts(
-    start: np.ndarray, offsets: Sequence[float] = THESIS_OFFSETS, axis: Literal["x", "y"] = "x"
-) -> np.ndarray:
-    """Monte Carlo starts: ``start`` translated by each offset along one axis.
-
-    Parameters
-    ----------
-    start : (N, 2) array
-    offsets : sequence of D floats, pixels
-    axis : ``"x"`` or ``"y"``
-
-    Returns
-    -------
-    (D, N, 2) array
-    """
-    if axis not in ("x", "y"):
-        raise ValueError(f"axis must be 'x' or 'y', got {axis!r}")
-    col = 0 if axis == "x" else 1
-    base = _as_points(start, "start")
-    out = np.repeat(base[None], len(offsets), axis=0)
-    out[:, :, col] += np.asarray(offsets, dtype=np.float64)[:, None]
-    return out

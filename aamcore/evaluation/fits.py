@@ -16,8 +16,9 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from aamcore.detection.boxes import landmark_box, match_detection
 from aamcore.detection.haar import HaarFaceDetector
-from aamcore.detection.mapping import cog_start, landmark_box, match_detection
+from aamcore.detection.mapping import BoxToShapeMapping
 from aamcore.evaluation.metrics import (
     nme,
     point_to_border,
@@ -27,9 +28,48 @@ from aamcore.evaluation.metrics import (
 )
 from aamcore.fitting.fitter import Fitter
 from aamcore.io import FaceSample
+from aamcore.io.landmarks import as_points
 from aamcore.model.aam import AAM
+from aamcore.model.similarity import Similarity
 
 STARTS = ("cog", "haar")
+
+
+THESIS_OFFSETS: tuple[int, ...] = tuple(
+    sorted({s * v for v in (0, 1, 3, 5, 10, 15, 20, 25, 30, 35, 40, 45, 50) for s in (-1, 1)})
+)
+"""Displacements in pixels of the thesis's Monte Carlo runs (tables 7.1, 7.2)."""
+
+
+def cog_start(
+    mapping: BoxToShapeMapping, points: np.ndarray, box: np.ndarray | None = None
+) -> np.ndarray:
+    """The thesis's centre-of-gravity start (section 7.3).
+
+    The reference shape scaled (and rotated) as the mapping says and centred
+    on the centroid of the ground-truth ``points``.
+
+    Parameters
+    ----------
+    mapping : BoxToShapeMapping
+    points : (N, 2) array
+        Ground-truth landmarks.
+    box : (4,) array, optional
+        A detector box giving the scale; by default the scale comes from the
+        landmark box of ``points`` through the fallback mapping.
+
+    Returns
+    -------
+    (N, 2) array
+    """
+    pts = as_points(points)
+    if box is None:
+        sim = mapping.transform(landmark_box(pts), "landmarks")
+    else:
+        sim = mapping.transform(box, "detector")
+    centre = pts.mean(axis=0)
+    return Similarity(sim.a, sim.b, float(centre[0]), float(centre[1])).apply(mapping.reference)
+
 
 
 @dataclass(frozen=True)

@@ -14,24 +14,15 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from aamcore.io.landmarks import LandmarkScheme
+from aamcore.io.landmarks import LandmarkScheme, as_points
 from aamcore.model.procrustes import align_similarity
 
 FAILURE_THRESHOLDS: tuple[float, float] = (0.08, 0.10)
 """NME above which a fit counts as a failure, as commonly reported."""
 
 
-def _shape(points: np.ndarray, name: str) -> np.ndarray:
-    arr = np.asarray(points, dtype=np.float64)
-    if arr.ndim != 2 or arr.shape[1] != 2 or len(arr) == 0:
-        raise ValueError(f"{name} must have shape (N, 2), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} holds NaN or infinite values")
-    return arr
-
-
 def _pair(fit: np.ndarray, gt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    a, b = _shape(fit, "fit"), _shape(gt, "gt")
+    a, b = as_points(fit, "fit"), as_points(gt, "gt")
     if a.shape != b.shape:
         raise ValueError(f"fit {a.shape} and ground truth {b.shape} differ in shape")
     return a, b

@@ -6,7 +6,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from aamcore.fitting.fitter import Tracker
+from aamcore.fitting.tracker import Tracker
 
 
 def track_frames(

@@ -37,9 +37,10 @@ from aamcore.expression.features import BASELINE_NAME, PixelPCAFeatures, crop_fa
 from aamcore.expression.labels import FIVE_CLASSES, SEVEN_CLASSES
 from aamcore.expression.report import format_confusion, save_confusion_png
 from aamcore.expression.svm import C_GRID, GAMMA_GRID
-from aamcore.fitting.fitter import Fitter, fitting_model_path
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
+from aamcore.fitting.training.prepare import default_model_path
 from aamcore.io.jaffe import load_jaffe
-from aamcore.model.file import load_model
 
 VARIANCES: tuple[float, ...] = (0.95, 0.97, 0.98, 0.99, 0.995, 0.999)
 """Kept-variance fractions of table 9.2."""
@@ -91,7 +92,7 @@ def load_aam_data(folder: str | Path | None = None, fitter: Fitter | None = None
     trained on LFPW only.
     """
     jaffe = load_jaffe(folder)
-    fitter = fitter or Fitter(load_model(fitting_model_path()))
+    fitter = fitter or Fitter(FittingModel.load(default_model_path()))
     faces = fit_faces(jaffe.samples, fitter)
     scheme = fitter.aam.scheme
     return PixelData(

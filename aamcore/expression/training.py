@@ -24,9 +24,9 @@ from aamcore.expression import ExpressionClassifier
 from aamcore.expression.aam_features import fit_faces
 from aamcore.expression.svm import tune_svm
 from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
 from aamcore.io.jaffe import load_jaffe
 from aamcore.io.sample import DatasetError
-from aamcore.model.file import load_model
 
 log = logging.getLogger("aamtrack.expression")
 TRAINING_VERSION = 3
@@ -56,7 +56,7 @@ def jaffe_appearance(
     posers : (n,) array of str
     """
     data = load_jaffe(folder)
-    faces = fit_faces(data.samples, Fitter(load_model(model_path)))
+    faces = fit_faces(data.samples, Fitter(FittingModel.load(model_path)))
     if not faces.samples:
         raise DatasetError(f"no JAFFE face could be fitted in {data.root}")
     return faces.appearance, data.labels()[faces.kept], data.posers()[faces.kept]

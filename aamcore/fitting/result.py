@@ -5,7 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.stats import chi2
+
+from aamcore.model.similarity import Similarity
 
 
 @dataclass
@@ -18,14 +19,18 @@ class FitResult:
         Fitted landmarks in image pixels.
     c : (t_c,) array
         Appearance parameters.
-    t : (4,) array
-        Pose parameters ``(s_x, s_y, t_x, t_y)``.
+    similarity : Similarity
+        Placement of the model frame in the image (the AAM's pose ``t`` is
+        ``similarity.params``).
     error : float
         Final texture error, mean squared normalised residual (eq. 7.7).
     iterations : int
+    converged : bool
+        Whether the algorithm stopped by its own convergence test rather than
+        its iteration limit (a learned cascade always runs all its stages).
     failed : bool
-        True when the fit failed the test of eq. 7.2 (an appearance parameter
-        beyond 3 sigma) or another check named in ``reason``.
+        True when the failure test rejected the fit (see
+        :class:`~aamcore.fitting.failure.FailureTest`).
     reason : str
         Why the fit failed, empty otherwise.
     iteration_seconds : list of float
@@ -36,9 +41,10 @@ class FitResult:
 
     points: np.ndarray
     c: np.ndarray
-    t: np.ndarray
+    similarity: Similarity
     error: float
     iterations: int
+    converged: bool = True
     failed: bool = False
     reason: str = ""
     iteration_seconds: list[float] = field(default_factory=list)
@@ -47,50 +53,3 @@ class FitResult:
     @property
     def ok(self) -> bool:
         return not self.failed
-
-
-FAILURE_TESTS = ("eq7.2", "chi2")
-
-
-class FailureTest:
-    """Decide whether a fit has failed from its appearance parameters ``c``.
-
-    Parameters
-    ----------
-    variances : (t_c,) array
-        Variances of the appearance parameters (combined-model eigenvalues).
-    kind : {"eq7.2", "chi2"}
-        ``eq7.2``: the thesis's test, any parameter beyond 3 sd. With many
-        modes it flags good fits of unseen faces often (each of 84 modes
-        has a 0.27 % chance, 20 % in all for Gaussian parameters).
-        ``chi2``: the squared Mahalanobis distance ``sum(c_i^2 / lambda_i)``
-        beyond the 99.7 % quantile of a chi-square with ``t_c`` degrees of
-        freedom: the same 0.3 % false-alarm rate whatever the number of modes.
-    """
-
-    def __init__(self, variances: np.ndarray, kind: str = "eq7.2") -> None:
-        if kind not in FAILURE_TESTS:
-            raise ValueError(f"unknown failure test {kind!r}: choose one of {FAILURE_TESTS}")
-        self.kind = kind
-        self.limits = 3.0 * np.sqrt(variances)
-        self.inverse_variances = 1.0 / variances
-        self.chi2_limit = float(chi2.ppf(0.997, len(variances)))
-
-    def __call__(self, c: np.ndarray, points: np.ndarray) -> str:
-        """Why the fit ``(c, points)`` has failed, or ``""``."""
-        if not (np.all(np.isfinite(c)) and np.all(np.isfinite(points))):
-            return "non-finite parameters"
-        if np.ptp(points[:, 0]) < 4 or np.ptp(points[:, 1]) < 4:
-            return "degenerate shape"
-        if self.kind == "chi2":
-            d2 = float(np.sum(c * c * self.inverse_variances))
-            if d2 > self.chi2_limit:
-                return (
-                    f"appearance Mahalanobis distance^2 {d2:.0f} beyond the 99.7 % "
-                    f"chi-square bound {self.chi2_limit:.0f}"
-                )
-            return ""
-        beyond = np.flatnonzero(np.abs(c) > self.limits)
-        if beyond.size:
-            return f"appearance parameter {int(beyond[0]) + 1} beyond 3 sigma (eq. 7.2)"
-        return ""

@@ -158,3 +158,20 @@ def generic_scheme(n_points: int) -> LandmarkScheme:
 def scheme_for(n_points: int) -> LandmarkScheme:
     """Return the known scheme for a point count (68: iBUG), else a generic one."""
     return IBUG68 if n_points == 68 else generic_scheme(n_points)
+
+
+def as_points(points: np.ndarray, name: str = "points") -> np.ndarray:
+    """``points`` as a float64 (N, 2) array of finite values, N >= 1.
+
+    Raises
+    ------
+    ValueError
+        Naming ``name``, for another shape or NaN or infinite values.
+    """
+    arr = np.asarray(points, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 2 or len(arr) == 0:
+        raise ValueError(f"{name} must have shape (N, 2), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} holds NaN or infinite values")
+    return arr
+

@@ -18,7 +18,7 @@ from aamcore.io.images import to_channels
 from aamcore.io.landmarks import LandmarkScheme
 from aamcore.model.combined import CombinedModel
 from aamcore.model.shape import ShapeModel
-from aamcore.model.similarity import apply_pose
+from aamcore.model.similarity import Similarity
 from aamcore.model.texture import TextureModel, equalise_region, normalise_texture
 from aamcore.warp.piecewise_affine import PiecewiseAffineWarp, render_texture
 from aamcore.warp.reference_frame import ReferenceFrame
@@ -40,10 +40,6 @@ class AAM:
         sampling (thesis section 4.3).
     summary : dict
         Training summary stored in the model file header.
-    attachments : dict of str to array
-        Extra arrays stored with the model (e.g. a fitter's update matrices).
-    attachment_header : dict
-        JSON description of the attachments.
     """
 
     scheme: LandmarkScheme
@@ -53,8 +49,6 @@ class AAM:
     frame: ReferenceFrame
     equalise: bool = False
     summary: dict[str, Any] = field(default_factory=dict)
-    attachments: dict[str, np.ndarray] = field(default_factory=dict)
-    attachment_header: dict[str, Any] = field(default_factory=dict)
 
     @property
     def channels(self) -> int:
@@ -84,9 +78,9 @@ class AAM:
         """Model-frame shape (N, 2) of appearance ``c`` (eq. 5.3)."""
         return (self.shape.pca.mean + self.shape_basis @ c).reshape(-1, 2)
 
-    def shape_instance(self, c: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Image shape (N, 2) of appearance ``c`` (t_c,) placed by pose ``t`` (4,)."""
-        return apply_pose(t, self.model_shape(c))
+    def shape_instance(self, c: np.ndarray, similarity: Similarity) -> np.ndarray:
+        """Image shape (N, 2) of appearance ``c`` (t_c,) placed by ``similarity``."""
+        return similarity.apply(self.model_shape(c))
 
     def texture_instance(self, c: np.ndarray) -> np.ndarray:
         """Normalised model texture (M C,) of appearance ``c`` (eq. 5.4)."""
@@ -104,21 +98,23 @@ class AAM:
         g, _, _ = normalise_texture(self.warp.warp(image, points).ravel())
         return g
 
-    def parameters_of(self, image: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Appearance ``c`` (t_c,) and pose ``t`` (4,) of an annotated raw image."""
-        b_s, t = self.shape.fit_points(points)
+    def parameters_of(
+        self, image: np.ndarray, points: np.ndarray
+    ) -> tuple[np.ndarray, Similarity]:
+        """Appearance ``c`` (t_c,) and placement of an annotated raw image."""
+        b_s, sim = self.shape.fit_points(points)
         g = self.sample(self.prepare_image(image, points), points)
-        return self.combined.params(b_s, self.texture.params(g)), t
+        return self.combined.params(b_s, self.texture.params(g)), sim
 
     def render(
         self,
         c: np.ndarray,
-        t: np.ndarray,
+        similarity: Similarity,
         canvas: np.ndarray,
         alpha: float = 1.0,
         beta: float = 0.0,
     ) -> np.ndarray:
-        """Paint the model instance of ``(c, t)`` onto ``canvas`` (figure 5.1).
+        """Paint the model instance of ``c`` placed by ``similarity`` onto ``canvas`` (figure 5.1).
 
         ``alpha`` and ``beta`` undo the photometric normalisation
         (``g = alpha g_norm + beta``) so the instance matches an image's
@@ -130,4 +126,4 @@ class AAM:
             texture = texture.mean(axis=1)
         elif texture.shape[1] != canvas.shape[2]:
             texture = np.repeat(texture[:, :1], canvas.shape[2], axis=1)
-        return render_texture(self.frame, texture, self.shape_instance(c, t), canvas)
+        return render_texture(self.frame, texture, self.shape_instance(c, similarity), canvas)

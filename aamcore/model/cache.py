@@ -15,11 +15,13 @@ from pathlib import Path
 
 from aamcore.config import cache_dir, resolve_dataset
 from aamcore.io import FaceSample, load_annotated_folder
-from aamcore.model.aam import AAM
+from aamcore.io.landmarks import LandmarkScheme
 from aamcore.model.file import FORMAT_VERSION, ModelFileError, load_model, save_model
 from aamcore.model.training import TrainConfig, train_aam
 
 log = logging.getLogger(__name__)
+
+Select = Callable[[list[FaceSample]], list[FaceSample]]
 
 
 def cache_key(dataset: str, config: TrainConfig, extra: dict | None = None) -> str:
@@ -36,15 +38,26 @@ def cache_key(dataset: str, config: TrainConfig, extra: dict | None = None) -> s
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
+def cached_file(
+    path: Path, build: Callable[[Path], Path], check: Callable[[Path], object] = load_model
+) -> Path:
+    """``path`` if it holds a usable model (``check`` loads it), else ``build(path)``."""
+    if path.is_file():
+        try:
+            check(path)
+            return path
+        except ModelFileError as exc:
+            log.warning("retraining: cached model unusable: %s", exc)
+    return build(path)
+
+
 def cached_model(
     dataset: str,
     config: TrainConfig = TrainConfig(),
-    select: Callable[[list[FaceSample]], list[FaceSample]] | None = None,
+    select: Select | None = None,
     select_name: str = "all",
-    prepare: Callable[[AAM, list[FaceSample]], AAM] | None = None,
-    prepare_name: str = "",
 ) -> Path:
-    """Path of a model trained on ``dataset``, training and caching it if needed.
+    """Path of an AAM trained on ``dataset``, training and caching it if needed.
 
     Parameters
     ----------
@@ -54,23 +67,22 @@ def cached_model(
     select : callable, optional
         Picks the training samples (e.g. a subject split); ``select_name``
         names the choice in the cache key.
-    prepare : callable, optional
-        Adds to the trained model before it is saved (e.g. fitter training);
-        ``prepare_name`` names it in the cache key.
     """
     folder = resolve_dataset(dataset)
-    key = cache_key(str(folder), config, {"select": select_name, "prepare": prepare_name})
-    path = cache_dir() / f"{folder.name}-{key}.npz"
-    if path.is_file():
-        try:
-            load_model(path)
-            return path
-        except ModelFileError as exc:
-            log.warning("retraining: cached model unusable: %s", exc)
+    key = cache_key(str(folder), config, {"select": select_name})
+
+    def build(path: Path) -> Path:
+        samples, scheme = training_samples(folder, select)
+        log.info("training a model on %d images of %s (cached as %s)", len(samples), folder, path)
+        return save_model(train_aam(samples, scheme, config, source=f"{folder} [{select_name}]"),
+                          path)
+
+    return cached_file(cache_dir() / f"{folder.name}-{key}.npz", build)
+
+
+def training_samples(
+    folder: Path, select: Select | None = None
+) -> tuple[list[FaceSample], LandmarkScheme]:
+    """The samples of ``folder`` that ``select`` keeps, and the folder's landmark scheme."""
     data = load_annotated_folder(folder)
-    samples = select(data.samples) if select else data.samples
-    log.info("training a model on %d images of %s (cached as %s)", len(samples), folder, path)
-    aam = train_aam(samples, data.scheme, config, source=f"{folder} [{select_name}]")
-    if prepare is not None:
-        aam = prepare(aam, samples)
-    return save_model(aam, path)
+    return (select(data.samples) if select else data.samples), data.scheme

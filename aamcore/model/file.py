@@ -2,12 +2,18 @@
 
 Loading never executes code (``allow_pickle=False``). A file written by
 another format version is refused with a message naming both versions.
+
+The file holds the :class:`~aamcore.model.aam.AAM` and, optionally, one
+*extra* part that this module stores without reading: a JSON header and
+named arrays (the fitting model of :mod:`aamcore.fitting.model` is such a
+part).
 """
 
 from __future__ import annotations
 
 import json
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,8 +28,9 @@ from aamcore.model.texture import TextureModel
 from aamcore.warp.reference_frame import ReferenceFrame
 
 FORMAT = "aamtrack-model"
-FORMAT_VERSION = 1
-ATTACHMENT_PREFIX = "attach__"
+FORMAT_VERSION = 2
+"""Version 2: the fitting part is a typed section (``extra``), not loose attachments."""
+EXTRA_PREFIX = "extra__"
 
 
 class ModelFileError(ValueError):
@@ -48,7 +55,25 @@ def _pca_from(prefix: str, arrays: dict[str, np.ndarray]) -> PCA:
     )
 
 
-def header_of(aam: AAM) -> dict[str, Any]:
+@dataclass(frozen=True)
+class StoredModel:
+    """What a model file holds.
+
+    Attributes
+    ----------
+    aam : AAM
+    extra : dict
+        The extra part's JSON header (empty when there is none).
+    arrays : dict of str to array
+        The extra part's arrays.
+    """
+
+    aam: AAM
+    extra: dict[str, Any]
+    arrays: dict[str, np.ndarray]
+
+
+def header_of(aam: AAM, extra: dict[str, Any] | None = None) -> dict[str, Any]:
     """The JSON header written for ``aam``."""
     return {
         "format": FORMAT,
@@ -69,17 +94,22 @@ def header_of(aam: AAM) -> dict[str, Any]:
         },
         "shape_weight": aam.combined.weight,
         "summary": aam.summary,
-        "attachments": aam.attachment_header,
+        "extra": extra or {},
     }
 
 
-def save_model(aam: AAM, path: str | Path) -> Path:
-    """Write ``aam`` to ``path`` (``.npz`` is appended if missing)."""
+def save_model(
+    aam: AAM,
+    path: str | Path,
+    extra: dict[str, Any] | None = None,
+    extra_arrays: dict[str, np.ndarray] | None = None,
+) -> Path:
+    """Write ``aam`` (and an extra part) to ``path`` (``.npz`` is appended if missing)."""
     path = Path(path)
     if path.suffix != ".npz":
         path = path.with_suffix(path.suffix + ".npz")
     path.parent.mkdir(parents=True, exist_ok=True)
-    header = json.dumps(header_of(aam), sort_keys=True).encode()
+    header = json.dumps(header_of(aam, extra), sort_keys=True).encode()
     arrays = {
         "header": np.frombuffer(header, dtype=np.uint8),
         **_pca_arrays("shape", aam.shape.pca),
@@ -87,7 +117,7 @@ def save_model(aam: AAM, path: str | Path) -> Path:
         **_pca_arrays("combined", aam.combined.pca),
         "frame_triangles": aam.frame.triangles,
     }
-    arrays.update({ATTACHMENT_PREFIX + k: v for k, v in aam.attachments.items()})
+    arrays.update({EXTRA_PREFIX + k: v for k, v in (extra_arrays or {}).items()})
     tmp = path.with_suffix(".tmp.npz")
     np.savez(tmp, **arrays)
     tmp.replace(path)
@@ -129,7 +159,18 @@ def _checked_header(path: Path, data: Any) -> dict[str, Any]:
 
 
 def load_model(path: str | Path) -> AAM:
-    """Load a model written by :func:`save_model`.
+    """Load the AAM of a model file written by :func:`save_model`.
+
+    Raises
+    ------
+    ModelFileError
+        If the file is missing, corrupt, or of another format version.
+    """
+    return read_model(path).aam
+
+
+def read_model(path: str | Path) -> StoredModel:
+    """Load everything a model file holds: the AAM and its extra part.
 
     Raises
     ------
@@ -153,10 +194,10 @@ def load_model(path: str | Path) -> AAM:
         frame = ReferenceFrame.from_mean_shape(shape.mean_shape, arrays["frame_triangles"])
     except (KeyError, TypeError, ValueError) as exc:
         raise ModelFileError(f"{path}: incomplete model file ({exc})") from exc
-    attachments = {
-        k[len(ATTACHMENT_PREFIX) :]: v for k, v in arrays.items() if k.startswith(ATTACHMENT_PREFIX)
+    extra_arrays = {
+        k[len(EXTRA_PREFIX) :]: v for k, v in arrays.items() if k.startswith(EXTRA_PREFIX)
     }
-    return AAM(
+    aam = AAM(
         scheme,
         shape,
         texture,
@@ -164,6 +205,5 @@ def load_model(path: str | Path) -> AAM:
         frame,
         equalise=bool(header["equalise"]),
         summary=header.get("summary", {}),
-        attachments=attachments,
-        attachment_header=header.get("attachments", {}),
     )
+    return StoredModel(aam, header.get("extra", {}), extra_arrays)

@@ -5,42 +5,9 @@ Shapes are ``(N, 2)`` arrays of ``(x, y)`` points.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-
-@dataclass(frozen=True)
-class Similarity:
-    """A 2D similarity ``x -> scale * R(angle) x + translation``.
-
-    Attributes
-    ----------
-    scale : float
-    angle : float
-        Rotation in radians, counter-clockwise in ``(x, y)`` coordinates.
-    translation : (2,) array
-    """
-
-    scale: float
-    angle: float
-    translation: np.ndarray
-
-    @property
-    def linear(self) -> np.ndarray:
-        """The 2x2 matrix ``scale * R(angle)``."""
-        c, s = np.cos(self.angle), np.sin(self.angle)
-        return self.scale * np.array([[c, -s], [s, c]])
-
-    def apply(self, points: np.ndarray) -> np.ndarray:
-        """Transform ``points`` of shape (N, 2)."""
-        return points @ self.linear.T + self.translation
-
-    def inverse(self) -> Similarity:
-        """The inverse transform."""
-        inv_scale = 1.0 / self.scale
-        inv = Similarity(inv_scale, -self.angle, np.zeros(2))
-        return Similarity(inv_scale, -self.angle, -inv.apply(self.translation[None])[0])
+from aamcore.model.similarity import Similarity
 
 
 def centre(points: np.ndarray) -> np.ndarray:
@@ -83,8 +50,9 @@ def align_similarity(source: np.ndarray, target: np.ndarray) -> Similarity:
         raise ValueError("degenerate source shape: all points coincide")
     a = float(np.sum(s_c * t_c)) / denom
     b = float(np.sum(s_c[:, 0] * t_c[:, 1] - s_c[:, 1] * t_c[:, 0])) / denom
-    linear = np.array([[a, -b], [b, a]])
-    return Similarity(float(np.hypot(a, b)), float(np.arctan2(b, a)), mu_t - linear @ mu_s)
+    tx = float(mu_t[0] - a * mu_s[0] + b * mu_s[1])
+    ty = float(mu_t[1] - b * mu_s[0] - a * mu_s[1])
+    return Similarity(a, b, tx, ty)
 
 
 def procrustes_distance(a: np.ndarray, b: np.ndarray) -> float:

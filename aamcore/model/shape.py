@@ -2,7 +2,7 @@
 
 Shapes live in the *model frame*: aligned by GPA, centred on the origin and
 scaled so that the mean shape covers the texture reference frame. The pose
-``t`` (:mod:`aamcore.model.similarity`) maps the model frame to an image.
+:class:`~aamcore.model.similarity.Similarity` maps the model frame to an image.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 
 from aamcore.model.pca import PCA, fit_pca
 from aamcore.model.procrustes import align_similarity, generalised_procrustes
-from aamcore.model.similarity import apply_pose, invert_pose, pose_from_similarity
+from aamcore.model.similarity import Similarity
 
 
 @dataclass(frozen=True)
@@ -66,18 +66,18 @@ class ShapeModel:
         lim = self.pca.limits(n_sigma)
         return np.clip(b, -lim, lim)
 
-    def fit_points(self, points: np.ndarray, iterations: int = 3) -> tuple[np.ndarray, np.ndarray]:
-        """Shape parameters and pose that best explain image ``points`` (N, 2).
+    def fit_points(self, points: np.ndarray, iterations: int = 3) -> tuple[np.ndarray, Similarity]:
+        """Shape parameters and placement that best explain image ``points`` (N, 2).
 
         Returns
         -------
         b : (k,) array
-        t : (4,) array
-            Pose parameters mapping the model frame onto the image.
+        similarity : Similarity
+            Maps the model frame onto the image.
         """
         b = np.zeros(self.n_modes)
-        t = np.zeros(4)
+        sim = Similarity()
         for _ in range(iterations):
-            t = pose_from_similarity(align_similarity(self.instance(b), points))
-            b = self.params(apply_pose(invert_pose(t), points))
-        return b, t
+            sim = align_similarity(self.instance(b), points)
+            b = self.params(sim.inverse().apply(points))
+        return b, sim

@@ -20,7 +20,7 @@ from aamcore.expression.benchmark import (
 )
 from aamcore.expression.svm import SVM_GRIDS
 from aamcore.fitting.fitter import Fitter
-from aamcore.model.file import load_model
+from aamcore.fitting.model import FittingModel
 from services.cli.groups import eval_group
 
 FEATURE_KINDS = ("aam", "pixels")
@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--trials must be at least 1, got {args.trials}")
     C_grid, gamma_grid = SVM_GRIDS[args.grid]
     if args.features == "aam":
-        fitter = Fitter(load_model(args.fit_model)) if args.fit_model else None
+        fitter = Fitter(FittingModel.load(args.fit_model)) if args.fit_model else None
         data = load_aam_data(args.data, fitter)
     else:
         data = load_pixel_data(args.data)

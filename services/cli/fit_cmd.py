@@ -11,11 +11,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from aamcore import defaults
 from aamcore.config import resolve_dataset
 from aamcore.detection.haar import HaarFaceDetector
-from aamcore.detection.mapping import THESIS_OFFSETS
 from aamcore.evaluation.fits import (
     STARTS,
+    THESIS_OFFSETS,
     failure_rates,
     format_failure_table,
     held_out,
@@ -24,9 +25,10 @@ from aamcore.evaluation.fits import (
     summary,
 )
 from aamcore.evaluation.plots import save_ced_png
-from aamcore.fitting.fitter import ALGORITHMS, Fitter
+from aamcore.fitting.algorithm import ALGORITHMS
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
 from aamcore.io import load_annotated_folder, read_image
-from aamcore.model.file import load_model
 from aamcore.model.visualise import draw_shape
 from services.cli.groups import eval_group
 
@@ -69,15 +71,15 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _algorithm_option(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--algorithm",
-        choices=ALGORITHMS,
-        default=ALGORITHMS[0],
-        help=f"fitting algorithm (default {ALGORITHMS[0]})",
+        choices=list(ALGORITHMS),
+        default=defaults.ALGORITHM,
+        help=f"fitting algorithm (default {defaults.ALGORITHM})",
     )
 
 
 def run_fit(args: argparse.Namespace) -> int:
-    aam = load_model(args.model)
-    fitter = Fitter(aam, args.algorithm)
+    fitter = Fitter(FittingModel.load(args.model), args.algorithm)
+    aam = fitter.aam
     detector = HaarFaceDetector()
     results = []
     for path in args.images:
@@ -127,8 +129,8 @@ def _test_samples(args: argparse.Namespace, aam) -> list:
 
 
 def run_eval_fit(args: argparse.Namespace) -> int:
-    aam = load_model(args.model)
-    fitter = Fitter(aam, args.algorithm)
+    fitter = Fitter(FittingModel.load(args.model), args.algorithm)
+    aam = fitter.aam
     samples = _test_samples(args, aam)
     offsets = [float(o) for o in args.offsets.split(",") if o.strip()]
     starts = [s.strip() for s in args.starts.split(",") if s.strip()]
@@ -163,8 +165,8 @@ def run_eval_fit(args: argparse.Namespace) -> int:
 
 
 def run_eval_landmarks(args: argparse.Namespace) -> int:
-    aam = load_model(args.model)
-    fitter = Fitter(aam, args.algorithm)
+    fitter = Fitter(FittingModel.load(args.model), args.algorithm)
+    aam = fitter.aam
     samples = _test_samples(args, aam)
     records = landmark_errors(fitter, samples)
     stats = summary(records)

@@ -207,16 +207,18 @@ def _fitted_sequence(
 ) -> dict[str, Any]:
     """Pose errors of POSIT on tracked AAM fits of the sequence's frames."""
     from aamcore.evaluation.tracking import track_frames
-    from aamcore.fitting.fitter import Fitter, Tracker, fitting_model_path
+    from aamcore.fitting.fitter import Fitter
+    from aamcore.fitting.model import FittingModel
+    from aamcore.fitting.tracker import Tracker
+    from aamcore.fitting.training.prepare import default_model_path
     from aamcore.io.video import video_frames
-    from aamcore.model.file import load_model
     from aamcore.synth.sequence import render_sequence
 
     if args.sequence is not None:
         frames = video_frames(args.sequence / "video.mp4")
     else:
         frames = (image for image, _, _ in render_sequence(truths, camera))
-    tracker = Tracker(Fitter(load_model(args.fit_model or fitting_model_path())))
+    tracker = Tracker(Fitter(FittingModel.load(args.fit_model or default_model_path())))
     landmarks, flagged = track_frames(frames, tracker)
     result = evaluate_pose_sequence(landmarks, truths, camera, model)
     return {k: v for k, v in result.items() if k != "per_frame"} | {"failed_fits": flagged}

@@ -21,7 +21,7 @@ import threading
 import time
 from typing import Any
 
-from aamcore.fitting.fitter import ALGORITHMS
+from aamcore.fitting.algorithm import ALGORITHMS
 from proto import Message
 from proto.keys import TOPICS, status_wildcard, topic_key
 from services.bus.runtime import BusOptions, Service, add_bus_arguments, init_process

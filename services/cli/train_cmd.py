@@ -9,7 +9,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from aamcore.config import cache_dir, resolve_dataset
-from aamcore.fitting.fitter import prepare_fitting
+from aamcore.fitting.training.prepare import train_fitting_model
 from aamcore.io import FaceSample, load_annotated_folder
 from aamcore.model.cache import cache_key
 from aamcore.model.file import read_header, save_model
@@ -107,7 +107,8 @@ def run(args: argparse.Namespace) -> int:
         print(
             "training the fitters (box mapping, update matrices, descent cascade)", file=sys.stderr
         )
-        aam = prepare_fitting(aam, samples)
-    path = save_model(aam, out)
+        path = train_fitting_model(aam, samples).save(out)
+    else:
+        path = save_model(aam, out)
     print_summary(read_header(path), path)
     return 0

@@ -28,10 +28,14 @@ from typing import Any
 import numpy as np
 
 from aamcore.detection.haar import HaarFaceDetector
-from aamcore.fitting.fitter import ALGORITHMS, Fitter, Tracker, fitting_model_path
-from aamcore.fitting.result import FAILURE_TESTS, FitResult
+from aamcore.fitting.algorithm import ALGORITHMS
+from aamcore.fitting.failure import FAILURE_TESTS
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
+from aamcore.fitting.result import FitResult
+from aamcore.fitting.tracker import Tracker
+from aamcore.fitting.training.prepare import default_model_path
 from aamcore.model.aam import AAM
-from aamcore.model.file import load_model
 from aamcore.warp.worker import make_warp
 from proto import Fit, Frame, Header, ProtoError, decode, encode
 from proto.keys import detect_key
@@ -85,7 +89,7 @@ def model_path(args: argparse.Namespace) -> Path:
     """The model file to use: ``--model`` or the cached default (trained if needed)."""
     if args.model:
         return Path(args.model)
-    return fitting_model_path(max_images=args.model_images, limit=args.model_limit or None)
+    return default_model_path(max_images=args.model_images, limit=args.model_limit or None)
 
 
 class ServiceDetector:
@@ -170,15 +174,13 @@ def _err_text(reply: Any) -> str:
         return "no reason given"
 
 
-def fit_message(
-    header: Header, result: FitResult | None, scheme: str, warp_path: str, max_iterations: float
-) -> Fit:
+def fit_message(header: Header, result: FitResult | None, scheme: str, warp_path: str) -> Fit:
     """The ``Fit`` message of a tracking result (``None``: no face found)."""
     if result is None:
         return Fit(header, scheme, EMPTY_POINTS, EMPTY, EMPTY, math.nan, 0, False, True,
                    NO_FACE, warp_path)
     finite = bool(np.all(np.isfinite(result.points)) and np.all(np.isfinite(result.c))
-                  and np.all(np.isfinite(result.t)))
+                  and np.all(np.isfinite(result.similarity.params)))
     error = float(result.error) if math.isfinite(result.error) else math.nan
     reason = result.reason or ("non-finite result" if not finite else "")
     failed = bool(result.failed or not finite)
@@ -186,10 +188,10 @@ def fit_message(
         header, scheme,
         result.points.astype(np.float32) if finite else EMPTY_POINTS,
         result.c.astype(np.float32) if finite else EMPTY,
-        result.t.astype(np.float32) if finite else EMPTY,
+        result.similarity.params.astype(np.float32) if finite else EMPTY,
         max(error, 0.0) if not math.isnan(error) else error,
         int(result.iterations),
-        not failed and result.iterations < max_iterations,
+        not failed and result.converged,
         failed, reason if failed else "", warp_path,
     )
 
@@ -204,7 +206,6 @@ class FrameTracker:
         self.tracker = Tracker(fitter, detector)
         self.detector = detector
         self.warp_path = warp_path
-        self.max_iterations = getattr(fitter.algorithm, "max_iterations", math.inf)
         self._last_index = -1
         self._size: tuple[int, int] | None = None
 
@@ -225,7 +226,7 @@ class FrameTracker:
         self.detector.set_frame(image, got.payload if frame.encoding == "raw" else b"")
         result = self.tracker.track(image)
         header = self.svc.header(frame.header.frame_index, frame.header.capture_time_ns)
-        return fit_message(header, result, self.scheme, self.warp_path, self.max_iterations)
+        return fit_message(header, result, self.scheme, self.warp_path)
 
     def _accept(self, frame: Frame) -> bool:
         """Check the frame's size against the stream's; forget the face on a new run.
@@ -275,18 +276,18 @@ def run(args: argparse.Namespace) -> int:
     """Run the fitter with parsed arguments; the exit code."""
     log = init_process(NAME, args.verbose)
     try:
-        aam = load_model(model_path(args))
-        warp, warp_path = make_warp(aam, args.warp)
+        model = FittingModel.load(model_path(args))
+        warp, warp_path = make_warp(model.aam, args.warp)
     except (OSError, ValueError) as exc:
         log.error("cannot load the model: %s", exc)
         return 1
     log.info("warp on the %s (%s)", warp_path, getattr(warp, "renderer", ""))
     try:
-        fitter = Fitter(aam, args.algorithm, warp=warp, failure_test=args.failure_test)
+        fitter = Fitter(model, args.algorithm, warp=warp, failure_test=args.failure_test)
         warm_up(fitter)
         with Service(NAME, BusOptions.from_args(args)) as svc:
             detector = ServiceDetector(svc, args.detect_timeout, args.local_for)
-            serve(svc, FrameTracker(svc, aam, fitter, warp_path, detector), args.capacity)
+            serve(svc, FrameTracker(svc, model.aam, fitter, warp_path, detector), args.capacity)
     finally:
         warp.close()
     return 0

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from aamcore.model.file import FORMAT_VERSION, ModelFileError, load_model, save_model
+from aamcore.model.similarity import Similarity
 
 
 def test_round_trip_is_exact(imm_model, tmp_path) -> None:
@@ -22,8 +23,8 @@ def test_round_trip_is_exact(imm_model, tmp_path) -> None:
     np.testing.assert_array_equal(loaded.frame.triangles, imm_model.frame.triangles)
     assert loaded.scheme == imm_model.scheme
     c = np.linspace(-1, 1, imm_model.n_appearance)
-    t = np.array([0.1, 0.05, 300.0, 200.0])
-    np.testing.assert_array_equal(loaded.shape_instance(c, t), imm_model.shape_instance(c, t))
+    sim = Similarity.from_params(np.array([0.1, 0.05, 300.0, 200.0]))
+    np.testing.assert_array_equal(loaded.shape_instance(c, sim), imm_model.shape_instance(c, sim))
     np.testing.assert_array_equal(loaded.texture_instance(c), imm_model.texture_instance(c))
 
 

@@ -1,15 +1,17 @@
 import numpy as np
 
 from aamcore.model.procrustes import (
-    Similarity,
     align_similarity,
     generalised_procrustes,
     procrustes_distance,
 )
+from aamcore.model.similarity import Similarity
 
 
 def _random_similarity(rng: np.random.Generator) -> Similarity:
-    return Similarity(rng.uniform(0.5, 2.0), rng.uniform(-np.pi, np.pi), rng.uniform(-100, 100, 2))
+    return Similarity.from_scale_angle(
+        rng.uniform(0.5, 2.0), rng.uniform(-np.pi, np.pi), rng.uniform(-100, 100, 2)
+    )
 
 
 def test_align_recovers_similarity(imm_set) -> None:

@@ -187,8 +187,8 @@ def publish_until_received(publisher: Any, key: str, probe: Probe, tag: bytes,
 def models() -> dict[str, list[str]]:
     """Model arguments per service for the small cached LFPW AAM (trained on first use)."""
     from aamcore.expression.training import classifier_path
-    from aamcore.fitting.fitter import fitting_model_path
+    from aamcore.fitting.training.prepare import default_model_path
 
-    path = fitting_model_path(max_images=MODEL_IMAGES, limit=MODEL_LIMIT)
+    path = default_model_path(max_images=MODEL_IMAGES, limit=MODEL_LIMIT)
     return {"fitter": ["--model", str(path)],
             "expression": ["--model", str(path), "--classifier", str(classifier_path(path))]}

@@ -3,11 +3,11 @@ import numpy as np
 from aamcore.expression.aam_features import AAMAppearanceFeatures, fit_faces
 from aamcore.expression.evaluation import default_classifiers, leave_one_poser_out
 from aamcore.fitting.fitter import Fitter
-from aamcore.model.file import load_model
+from aamcore.fitting.model import FittingModel
 
 
 def test_fitted_faces_and_per_fold_appearance(jaffe_set, lfpw_fit_model_path) -> None:
-    fitter = Fitter(load_model(lfpw_fit_model_path))
+    fitter = Fitter(FittingModel.load(lfpw_fit_model_path))
     chosen = [s for s in jaffe_set.samples if s.poser in ("KA", "KL", "KM")]
     faces = fit_faces(chosen, fitter)
     assert len(faces.samples) + len(faces.errors) == len(chosen)

@@ -2,8 +2,8 @@ from pathlib import Path
 
 import pytest
 
-from aamcore.fitting.fitter import prepare_fitting
-from aamcore.model.file import load_model, save_model
+from aamcore.fitting.model import FittingModel
+from aamcore.fitting.training.prepare import train_fitting_model
 from aamcore.model.training import TrainConfig, train_aam
 
 
@@ -23,10 +23,10 @@ def imm_fit_model_path(imm_set, imm_train, tmp_path_factory) -> Path:
     aam = train_aam(
         imm_train, imm_set.scheme, TrainConfig(n_pixels=6000, colour=False, shape_variance=0.98)
     )
-    aam = prepare_fitting(aam, imm_train, max_images=25)
-    return save_model(aam, tmp_path_factory.mktemp("fit") / "imm_fit.npz")
+    model = train_fitting_model(aam, imm_train, max_images=25)
+    return model.save(tmp_path_factory.mktemp("fit") / "imm_fit.npz")
 
 
 @pytest.fixture(scope="session")
 def imm_fit_model(imm_fit_model_path):
-    return load_model(imm_fit_model_path)
+    return FittingModel.load(imm_fit_model_path)

@@ -12,7 +12,7 @@ from aamcore.fitting.fitter import Fitter
 
 
 def test_held_out_excludes_training_subjects(imm_fit_model, imm_set) -> None:
-    rest = held_out(imm_fit_model, imm_set.samples)
+    rest = held_out(imm_fit_model.aam, imm_set.samples)
     assert {s.subject for s in rest} == {"10", "11", "12"}
 
 

@@ -3,8 +3,10 @@ import pytest
 
 from aamcore.evaluation.metrics import nme
 from aamcore.fitting.algorithm import FixedJacobian
-from aamcore.fitting.fitter import Fitter, Tracker
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.tracker import Tracker
 from aamcore.fitting.training.update import PerturbationScheme, train_update
+from aamcore.model.similarity import Similarity
 
 
 def _nme(result, sample, scheme) -> float:
@@ -12,11 +14,8 @@ def _nme(result, sample, scheme) -> float:
 
 
 def _true_pose_start(fitter, sample, dx=0.0, dy=0.0):
-    _, t = fitter.aam.shape.fit_points(sample.points)
-    t = t.copy()
-    t[2] += dx
-    t[3] += dy
-    return np.zeros(fitter.aam.n_appearance), t
+    _, sim = fitter.aam.shape.fit_points(sample.points)
+    return np.zeros(fitter.aam.n_appearance), Similarity(sim.a, sim.b, sim.tx + dx, sim.ty + dy)
 
 
 @pytest.mark.parametrize(
@@ -24,7 +23,7 @@ def _true_pose_start(fitter, sample, dx=0.0, dy=0.0):
 )
 def test_fit_from_displaced_start_on_held_out_subjects(imm_fit_model, imm_test, algorithm) -> None:
     fitter = Fitter(imm_fit_model, algorithm)
-    scheme = imm_fit_model.scheme
+    scheme = fitter.aam.scheme
     errors, starts = [], []
     for sample in imm_test[::3]:
         c0, t0 = _true_pose_start(fitter, sample, dx=20.0)
@@ -43,7 +42,7 @@ def test_haar_start_fits_held_out_faces(imm_fit_model, imm_test) -> None:
         tracker.reset()
         result = tracker.track(sample.load_image())
         assert result is not None
-        errors.append(_nme(result, sample, imm_fit_model.scheme))
+        errors.append(_nme(result, sample, imm_fit_model.aam.scheme))
     assert np.mean(errors) < 0.05
 
 
@@ -55,23 +54,24 @@ def test_tracking_reuses_the_last_fit(imm_fit_model, imm_test) -> None:
     again = tracker.track(image)
     assert again is not None and tracker.detections == 1
     drift = np.linalg.norm(again.points - first.points, axis=1).mean()
-    assert drift < 0.02 * imm_fit_model.scheme.inter_ocular(first.points)
+    assert drift < 0.02 * imm_fit_model.aam.scheme.inter_ocular(first.points)
 
 
 def test_regression_and_jacobian_updates(imm_fit_model, imm_train, imm_test) -> None:
     scheme = PerturbationScheme()
+    aam = imm_fit_model.aam
     for method in ("regression", "jacobian"):
-        update = train_update(imm_fit_model, imm_train, method, scheme, max_images=10)
-        assert update.R.shape == (imm_fit_model.n_appearance + 4, imm_fit_model.frame.n_pixels)
-        algorithm = FixedJacobian(imm_fit_model, update)
+        update = train_update(aam, imm_train, method, scheme, max_images=10)
+        assert update.R.shape == (aam.n_appearance + 4, aam.frame.n_pixels)
+        algorithm = FixedJacobian(aam, update)
         sample = imm_test[1]
-        _, t = imm_fit_model.shape.fit_points(sample.points)
-        t = t + np.array([0.0, 0.0, 12.0, -8.0])
-        c0 = np.zeros(imm_fit_model.n_appearance)
-        image = imm_fit_model.prepare_image(sample.load_image())
-        start = nme(imm_fit_model.shape_instance(c0, t), sample.points, imm_fit_model.scheme)
-        result = algorithm.run(image, c0, t)
-        assert nme(result.points, sample.points, imm_fit_model.scheme) < 0.5 * start
+        _, sim = aam.shape.fit_points(sample.points)
+        sim = Similarity(sim.a, sim.b, sim.tx + 12.0, sim.ty - 8.0)
+        c0 = np.zeros(aam.n_appearance)
+        image = aam.prepare_image(sample.load_image())
+        start = nme(aam.shape_instance(c0, sim), sample.points, aam.scheme)
+        result = algorithm.run(image, c0, sim)
+        assert nme(result.points, sample.points, aam.scheme) < 0.5 * start
         assert result.errors[-1] <= result.errors[0]
 
 
@@ -87,7 +87,7 @@ def test_no_face_and_odd_images(imm_fit_model, imm_test) -> None:
         tracker.reset()
         result = tracker.track(variant)
         assert result is not None
-        assert nme(result.points, imm_test[2].points, imm_fit_model.scheme) < 0.1
+        assert nme(result.points, imm_test[2].points, imm_fit_model.aam.scheme) < 0.1
 
 
 def test_bad_starts_give_clear_results(imm_fit_model, imm_test) -> None:
@@ -96,14 +96,16 @@ def test_bad_starts_give_clear_results(imm_fit_model, imm_test) -> None:
     with pytest.raises(ValueError, match="box"):
         fitter.fit_box(image, [10, 10, 0, 0])
     with pytest.raises(ValueError, match="NaN"):
-        fitter.fit_shape(image, np.full((imm_fit_model.scheme.n_points, 2), np.nan))
+        fitter.fit_shape(image, np.full((imm_fit_model.aam.scheme.n_points, 2), np.nan))
     # A box mostly outside the image still gives a result, flagged or not, never a crash.
     result = fitter.fit_box(image, [700, 500, 300, 300])
-    assert result.points.shape == (imm_fit_model.scheme.n_points, 2)
+    assert result.points.shape == (imm_fit_model.aam.scheme.n_points, 2)
     # A far-off start is reported as a failed fit (eq. 7.2) rather than a face.
-    c = np.full(imm_fit_model.n_appearance, 50.0) * np.sqrt(imm_fit_model.combined.pca.variances)
-    _, t = imm_fit_model.shape.fit_points(imm_test[0].points)
-    result = Fitter(imm_fit_model, "fixed-jacobian", max_iterations=1).fit(image, c, t)
+    aam = imm_fit_model.aam
+    c = np.full(aam.n_appearance, 50.0) * np.sqrt(aam.combined.pca.variances)
+    _, sim = aam.shape.fit_points(imm_test[0].points)
+    fitter = Fitter(imm_fit_model, "fixed-jacobian", max_iterations=1, failure_test="eq7.2")
+    result = fitter.fit(image, c, sim)
     assert result.failed and "3 sigma" in result.reason
 
 

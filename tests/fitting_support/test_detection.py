@@ -8,8 +8,8 @@ import cv2
 import numpy as np
 import pytest
 
+from aamcore.detection.boxes import box_iou
 from aamcore.detection.haar import DEFAULT_CASCADE, HaarFaceDetector, cascade_path, to_grey_uint8
-from aamcore.detection.mapping import box_iou
 from aamcore.io import AnnotatedSet, load_annotated_folder
 
 

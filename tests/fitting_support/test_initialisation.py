@@ -9,10 +9,13 @@ import numpy as np
 import pytest
 
 from aamcore.detection import mapping as init
+from aamcore.detection.boxes import detect_all, landmark_box, match_detection
 from aamcore.detection.haar import HaarFaceDetector
+from aamcore.evaluation.fits import THESIS_OFFSETS, cog_start
 from aamcore.evaluation.metrics import nme
 from aamcore.io import AnnotatedSet
 from aamcore.model.procrustes import generalised_procrustes
+from aamcore.model.similarity import Similarity
 
 HELD_OUT = {"10", "11", "12"}
 
@@ -54,7 +57,7 @@ def _held_out_nme(
     errors = []
     for i in test:
         sample = imm_set.samples[i]
-        k = init.match_detection(imm_detections[i], sample.points)
+        k = match_detection(imm_detections[i], sample.points)
         assert k is not None
         errors.append(nme(place(imm_detections[i][k]), sample.points, imm_set.scheme))  # type: ignore[operator]
     return np.array(errors)
@@ -83,17 +86,18 @@ def test_landmark_box_fallback_places_held_out_starts(
     imm_set: AnnotatedSet, split: tuple[np.ndarray, np.ndarray], mapping: init.BoxToShapeMapping
 ) -> None:
     errors = [
-        nme(mapping.place(init.landmark_box(s.points), "landmarks"), s.points, imm_set.scheme)
+        nme(mapping.place(landmark_box(s.points), "landmarks"), s.points, imm_set.scheme)
         for s in (imm_set.samples[i] for i in split[1])
     ]
     assert np.mean(errors) < 0.15
 
 
-def test_learn_box_to_shape_runs_the_detector(
+def test_mapping_from_real_detections(
     imm_set: AnnotatedSet, reference: np.ndarray, mapping: init.BoxToShapeMapping
 ) -> None:
     samples = imm_set.samples[:20:4]
-    learned = init.learn_box_to_shape(samples, reference, HaarFaceDetector())
+    detections = detect_all(samples, HaarFaceDetector())
+    learned = init.fit_box_to_shape(reference, [s.points for s in samples], detections)
     assert learned.n_train == 5 and learned.detection_rate == 1.0
     assert learned.detector.a == pytest.approx(mapping.detector.a, rel=0.15)
 
@@ -116,12 +120,12 @@ def test_fit_recovers_known_coefficients(reference: np.ndarray) -> None:
 
 
 def test_similarity_onto_recovers_transform(reference: np.ndarray) -> None:
-    target = init.apply_similarity(reference, 180.0, -0.2, 310.0, 255.0)
-    s, theta, tx, ty = init.similarity_onto(reference, target, with_rotation=True)
-    assert (s, theta, tx, ty) == pytest.approx((180.0, -0.2, 310.0, 255.0))
-    s0, theta0, tx0, ty0 = init.similarity_onto(reference, target)
-    assert theta0 == 0.0 and (tx0, ty0) == pytest.approx((310.0, 255.0))
-    assert s0 == pytest.approx(180.0 * math.cos(0.2))
+    target = Similarity.from_scale_angle(180.0, -0.2, (310.0, 255.0)).apply(reference)
+    sim = init.similarity_onto(reference, target, with_rotation=True)
+    assert (sim.scale, sim.angle, sim.tx, sim.ty) == pytest.approx((180.0, -0.2, 310.0, 255.0))
+    upright = init.similarity_onto(reference, target)
+    assert upright.angle == 0.0 and (upright.tx, upright.ty) == pytest.approx((310.0, 255.0))
+    assert upright.scale == pytest.approx(180.0 * math.cos(0.2))
 
 
 def test_match_detection_prefers_box_over_face(
@@ -129,13 +133,13 @@ def test_match_detection_prefers_box_over_face(
 ) -> None:
     points = imm_set.samples[0].points
     face = imm_detections[0][0]
-    gt = init.landmark_box(points)
+    gt = landmark_box(points)
     far = np.array([0.0, 0.0, 50.0, 50.0])
     # Centre inside the landmark box but much smaller than the face.
     tiny = np.array([gt[0] + gt[2] / 2 - 5, gt[1] + gt[3] / 2 - 5, 10.0, 10.0])
-    assert init.match_detection(np.stack([far, tiny, face]), points) == 2
-    assert init.match_detection(far[None], points) is None
-    assert init.match_detection(np.zeros((0, 4)), points) is None
+    assert match_detection(np.stack([far, tiny, face]), points) == 2
+    assert match_detection(far[None], points) is None
+    assert match_detection(np.zeros((0, 4)), points) is None
 
 
 def test_json_round_trip(mapping: init.BoxToShapeMapping) -> None:
@@ -155,38 +159,18 @@ def test_json_round_trip(mapping: init.BoxToShapeMapping) -> None:
         init.BoxToShapeMapping.from_json({"reference": mapping.reference.tolist()})
 
 
-def test_start_shape_falls_back_to_landmark_box(mapping: init.BoxToShapeMapping) -> None:
-    box = np.array([100.0, 100.0, 200.0, 200.0])
-    start, source = init.start_shape(mapping, box[None])  # type: ignore[misc]
-    assert source == "detector"
-    np.testing.assert_allclose(start, mapping.place(box))
-    start, source = init.start_shape(mapping, np.zeros((0, 4)), fallback_box=box)  # type: ignore[misc]
-    assert source == "landmarks"
-    np.testing.assert_allclose(start, mapping.place(box, "landmarks"))
-    assert init.start_shape(mapping, np.zeros((0, 4))) is None
-
-
 def test_cog_start_is_centred_on_ground_truth(
     imm_set: AnnotatedSet, imm_detections: list[np.ndarray], mapping: init.BoxToShapeMapping
 ) -> None:
     points = imm_set.samples[5].points
     for box in (None, imm_detections[5][0]):
-        start = init.cog_start(mapping, points, box)
+        start = cog_start(mapping, points, box)
         np.testing.assert_allclose(start.mean(axis=0), points.mean(axis=0), atol=1e-9)
         assert nme(start, points, imm_set.scheme) < 0.15
 
 
-def test_displaced_starts(mapping: init.BoxToShapeMapping) -> None:
-    start = mapping.place(np.array([100.0, 100.0, 200.0, 200.0]))
-    starts = init.displaced_starts(start, [-10, 0, 25], axis="y")
-    assert starts.shape == (3, len(start), 2)
-    np.testing.assert_allclose(starts[:, :, 0], np.broadcast_to(start[:, 0], (3, len(start))))
-    shift = np.broadcast_to(np.array([[-10.0], [0.0], [25.0]]), (3, len(start)))
-    np.testing.assert_allclose(starts[:, :, 1] - start[:, 1], shift, atol=1e-12)
-    np.testing.assert_allclose(init.displace(start, dx=3), start + [3, 0])
-    assert 0 in init.THESIS_OFFSETS and -50 in init.THESIS_OFFSETS and 50 in init.THESIS_OFFSETS
-    with pytest.raises(ValueError, match="axis"):
-        init.displaced_starts(start, [1], axis="z")  # type: ignore[arg-type]
+def test_thesis_offsets() -> None:
+    assert 0 in THESIS_OFFSETS and -50 in THESIS_OFFSETS and 50 in THESIS_OFFSETS
 
 
 def test_bad_inputs_raise(reference: np.ndarray, mapping: init.BoxToShapeMapping) -> None:

@@ -16,7 +16,7 @@ from aamcore.config import data_root
 from aamcore.evaluation import metrics
 from aamcore.io import AnnotatedSet, load_annotated_folder
 from aamcore.io.landmarks import IBUG68, generic_scheme
-from aamcore.model.procrustes import Similarity
+from aamcore.model.similarity import Similarity
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +33,7 @@ def _lfpw_first_shape() -> np.ndarray:
 def _similar(
     points: np.ndarray, scale: float, angle: float, shift: tuple[float, float]
 ) -> np.ndarray:
-    return Similarity(scale, angle, np.array(shift)).apply(points)
+    return Similarity.from_scale_angle(scale, angle, shift).apply(points)
 
 
 def test_point_to_point_self_and_translation(imm_set: AnnotatedSet) -> None:

@@ -44,9 +44,9 @@ def no_face(videos: Path) -> Path:
 @pytest.fixture(scope="session")
 def model_path() -> Path:
     """A small LFPW AAM ready for fitting, from the user cache (trained on first use)."""
-    from aamcore.fitting.fitter import fitting_model_path
+    from aamcore.fitting.training.prepare import default_model_path
 
-    return fitting_model_path(max_images=MODEL_IMAGES, limit=MODEL_LIMIT)
+    return default_model_path(max_images=MODEL_IMAGES, limit=MODEL_LIMIT)
 
 
 @pytest.fixture(scope="session")

@@ -13,8 +13,8 @@ import pytest
 
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
 from aamcore.io.jaffe import load_jaffe
-from aamcore.model.file import load_model
 from proto import Fit, Header
 from proto.keys import status_key
 from services.bus.runtime import BusOptions, Service
@@ -27,9 +27,11 @@ def happy_fit(model_path: Path, data_dir: Path, index: int) -> Fit:
     """A fit of the AAM to a happy JAFFE face, as the fitter would publish it."""
     sample = next(s for s in load_jaffe(data_dir / "jaffe").samples if s.label == "HA")
     image = sample.load_image()
-    result = Fitter(load_model(model_path)).fit_box(image, HaarFaceDetector().detect(image)[0])
+    box = HaarFaceDetector().detect(image)[0]
+    result = Fitter(FittingModel.load(model_path)).fit_box(image, box)
     return Fit(Header.now("cam0", index, "fitter"), "ibug68", result.points.astype(np.float32),
-               result.c.astype(np.float32), result.t.astype(np.float32), result.error, 5, True,
+               result.c.astype(np.float32), result.similarity.params.astype(np.float32),
+               result.error, 5, True,
                False, "", "cpu")
 
 

@@ -12,8 +12,9 @@ import pytest
 
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
 from aamcore.fitting.result import FitResult
-from aamcore.model.file import load_model
+from aamcore.model.similarity import Similarity
 from aamcore.warp.worker import make_warp
 from proto import Header, decode, encode
 from services.bus.runtime import BusOptions, Service
@@ -40,15 +41,15 @@ def frames(video: Path, indices: tuple[int, ...]) -> list[np.ndarray]:
 
 
 def test_gpu_and_cpu_warps_give_the_same_fit(model_path: Path, single_face: Path) -> None:
-    aam = load_model(model_path)
+    model = FittingModel.load(model_path)
     images = frames(single_face, (0, 20, 40, 60))
     box = HaarFaceDetector().detect(images[0])[0]
     fits = {}
     for prefer in ("gpu", "cpu"):
-        warp, path = make_warp(aam, prefer)
+        warp, path = make_warp(model.aam, prefer)
         try:
             assert path == prefer, "no GL context: the GPU path cannot be compared"
-            fitter = Fitter(aam, warp=warp)
+            fitter = Fitter(model, warp=warp)
             fits[path] = [fitter.fit_box(image, box) for image in images]
         finally:
             warp.close()
@@ -59,21 +60,22 @@ def test_gpu_and_cpu_warps_give_the_same_fit(model_path: Path, single_face: Path
 
 
 def _result(points: np.ndarray, failed: bool = False, reason: str = "") -> FitResult:
-    return FitResult(points, np.zeros(3), np.array([0.1, 0.0, 5.0, 6.0]), 0.02, 4, failed, reason)
+    return FitResult(points, np.zeros(3), Similarity(1.1, 0.0, 5.0, 6.0), 0.02, 4, True, failed,
+                     reason)
 
 
 def test_fit_messages_for_good_failed_lost_and_broken_results() -> None:
     header = Header.now("cam0", 3, "fitter")
     points = np.random.default_rng(0).uniform(10, 200, (68, 2))
-    good = decode(encode(fit_message(header, _result(points), "ibug68", "gpu", 20)), "fit")
+    good = decode(encode(fit_message(header, _result(points), "ibug68", "gpu")), "fit")
     assert not good.failed and good.converged and good.warp_path == "gpu"
     assert np.allclose(good.landmarks, points, atol=1e-3)
-    failed = fit_message(header, _result(points, True, "beyond 3 sigma"), "ibug68", "cpu", 20)
+    failed = fit_message(header, _result(points, True, "beyond 3 sigma"), "ibug68", "cpu")
     assert failed.failed and failed.failure_reason == "beyond 3 sigma" and len(failed.landmarks)
-    lost = fit_message(header, None, "ibug68", "cpu", 20)
+    lost = fit_message(header, None, "ibug68", "cpu")
     assert lost.failed and lost.failure_reason == NO_FACE and lost.landmarks.shape == (0, 2)
     assert math.isnan(lost.texture_error)
-    broken = fit_message(header, _result(np.full((68, 2), np.nan)), "ibug68", "cpu", 20)
+    broken = fit_message(header, _result(np.full((68, 2), np.nan)), "ibug68", "cpu")
     assert broken.failed and broken.failure_reason == "non-finite result"
     assert broken.landmarks.shape == (0, 2)
 

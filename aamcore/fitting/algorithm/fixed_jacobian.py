@@ -3,17 +3,24 @@
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from aamcore.fitting.algorithm.base import AlgorithmSettings
+from aamcore.fitting.failure import FailureTest
 from aamcore.fitting.residuals import ResidualFunction, WarpFn
-from aamcore.fitting.result import FailureTest, FitResult
+from aamcore.fitting.result import FitResult
 from aamcore.fitting.training.update import UpdateMatrix
 from aamcore.model.aam import AAM
-from aamcore.model.similarity import compose_poses, invert_pose
+from aamcore.model.similarity import Similarity
 
-# Step sizes: the full step first, then the alternatives of Algorithm 7.
+if TYPE_CHECKING:
+    from aamcore.fitting.model import FittingModel
+
 DAMPING = (1.0, 1.5, 0.5, 0.25, 0.125)
+"""Step sizes: the full step first, then the alternatives of Algorithm 7."""
+MAX_ITERATIONS = 20
 
 
 class FixedJacobian:
@@ -37,7 +44,7 @@ class FixedJacobian:
         self,
         aam: AAM,
         update: UpdateMatrix,
-        max_iterations: int = 20,
+        max_iterations: int = MAX_ITERATIONS,
         warp: WarpFn | None = None,
         failure: FailureTest | None = None,
     ) -> None:
@@ -48,25 +55,37 @@ class FixedJacobian:
         self.n_c = aam.n_appearance
         self.failure = failure or FailureTest(aam.combined.pca.variances)
 
-    def _step(self, c: np.ndarray, t: np.ndarray, dp: np.ndarray, alpha: float):
+    @classmethod
+    def from_model(
+        cls, model: FittingModel, settings: AlgorithmSettings, level: int = 0
+    ) -> FixedJacobian:
+        """The fitter of the update matrix learned for pyramid ``level``."""
+        return cls(
+            model.aam, model.update(level), settings.max_iterations or MAX_ITERATIONS,
+            settings.warp, settings.failure,
+        )
+
+    def _step(
+        self, c: np.ndarray, t: np.ndarray, dp: np.ndarray, alpha: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         c_new = c - alpha * dp[: self.n_c]
         # The update predicts how the current pose is displaced from the
         # truth in the model frame (T = T_true o T_d): undo it by composition.
-        t_new = compose_poses(t, invert_pose(alpha * dp[self.n_c :]))
-        return c_new, t_new
+        undo = Similarity.from_params(alpha * dp[self.n_c :]).inverse()
+        return c_new, (Similarity.from_params(t) @ undo).params
 
     def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
         """Fit from the previous frame's parameters."""
-        return self.run(image, previous.c, previous.t)
+        return self.run(image, previous.c, previous.similarity)
 
-    def run(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
-        """Fit from ``(c0, t0)`` on a prepared ``image``."""
-        c, t = c0.astype(np.float64).copy(), t0.astype(np.float64).copy()
+    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> FitResult:
+        """Fit from ``(c0, start)`` on a prepared ``image``."""
+        c, t = c0.astype(np.float64).copy(), start.params
         r, error = self.residual(image, c, t)
         errors, seconds = [error], []
-        iterations = 0
+        iterations, converged = 0, False
         for _ in range(self.max_iterations):
-            start = time.perf_counter()
+            begun = time.perf_counter()
             dp = (self.R @ r).astype(np.float64)
             improved = False
             for alpha in DAMPING:
@@ -77,10 +96,12 @@ class FixedJacobian:
                     improved = True
                     break
             iterations += 1
-            seconds.append(time.perf_counter() - start)
+            seconds.append(time.perf_counter() - begun)
             errors.append(error)
             if not improved:
+                converged = True
                 break
         points = self.residual.shape(c, t)
         reason = self.failure(c, points)
-        return FitResult(points, c, t, error, iterations, bool(reason), reason, seconds, errors)
+        return FitResult(points, c, Similarity.from_params(t), error, iterations, converged,
+                         bool(reason), reason, seconds, errors)

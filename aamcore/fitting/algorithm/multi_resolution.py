@@ -10,66 +10,78 @@ the one before.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+from aamcore.fitting.algorithm.base import AlgorithmSettings
+from aamcore.fitting.algorithm.fixed_jacobian import FixedJacobian
 from aamcore.fitting.pyramid import pyramid
 from aamcore.fitting.result import FitResult
+from aamcore.model.similarity import Similarity
+
+if TYPE_CHECKING:
+    from aamcore.fitting.model import FittingModel
 
 
-def scale_pose(t: np.ndarray, factor: float) -> np.ndarray:
-    """Pose ``t`` (4,) of the same placement in an image scaled by ``factor``.
+def scale_similarity(similarity: Similarity, factor: float) -> Similarity:
+    """The same placement in an image scaled by ``factor`` with ``cv2.pyrDown``'s convention.
 
     ``pyrDown`` keeps pixel centres aligned at ``x_small = (x + 0.5) / 2 - 0.5``
     for ``factor = 0.5``; the translation follows that convention.
     """
-    a = (1.0 + t[0]) * factor
-    b = t[1] * factor
     offset = 0.5 * (factor - 1.0)
-    return np.array([a - 1.0, b, t[2] * factor + offset, t[3] * factor + offset])
+    s = similarity.scaled(factor)
+    return Similarity(s.a, s.b, s.tx + offset, s.ty + offset)
 
 
 class MultiResolution:
-    """Run one algorithm per pyramid level, coarse to fine.
+    """Run one fixed-Jacobian fitter per pyramid level, coarse to fine.
 
     Parameters
     ----------
-    levels : list of algorithms
-        ``levels[l]`` fits images halved ``l`` times; each has
-        ``run(image, c0, t0) -> FitResult``.
+    levels : list of FixedJacobian
+        ``levels[l]`` fits images halved ``l`` times.
     """
 
-    def __init__(self, levels: list) -> None:
+    def __init__(self, levels: list[FixedJacobian]) -> None:
         if not levels:
             raise ValueError("a multi-resolution fitter needs at least one level")
         self.levels = levels
         self.name = f"multi-resolution({levels[0].name}, {len(levels)} levels)"
 
+    @classmethod
+    def from_model(cls, model: FittingModel, settings: AlgorithmSettings) -> MultiResolution:
+        """One level per update matrix the model learned."""
+        return cls([FixedJacobian.from_model(model, settings, level)
+                    for level in range(len(model.updates))])
+
     def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
         """Fit from the previous frame's fit, at full resolution only."""
         return self.levels[0].track(image, previous)
 
-    def run(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
-        """Fit from ``(c0, t0)``, given in full-image pixels."""
+    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> FitResult:
+        """Fit from ``(c0, start)``, given in full-image pixels."""
         images = pyramid(image, len(self.levels))
-        c, t = c0, t0
+        c, sim = c0, start
         seconds: list[float] = []
         errors: list[float] = []
         iterations = 0
         result = None
         for level in reversed(range(len(self.levels))):
             factor = 0.5**level
-            result = self.levels[level].run(images[level], c, scale_pose(t, factor))
-            c, t = result.c, scale_pose(result.t, 1.0 / factor)
+            result = self.levels[level].run(images[level], c, scale_similarity(sim, factor))
+            c, sim = result.c, scale_similarity(result.similarity, 1.0 / factor)
             seconds += result.iteration_seconds
             errors += result.errors
             iterations += result.iterations
         assert result is not None
-        result.t = t
+        result.similarity = sim
         if len(self.levels) > 1:
             # The coarse levels can also lead a near start astray: keep the
             # full-resolution fit from the start itself when it explains the
             # image better.
-            direct = self.levels[0].run(image, c0, t0)
+            direct = self.levels[0].run(image, c0, start)
             seconds += direct.iteration_seconds
             iterations += direct.iterations
             if direct.error < result.error:

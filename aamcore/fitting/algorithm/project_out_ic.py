@@ -13,14 +13,22 @@ applies as for :class:`~aamcore.fitting.algorithm.FixedJacobian`.
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import ndimage
 
+from aamcore.fitting.algorithm.base import AlgorithmSettings
+from aamcore.fitting.failure import FailureTest
 from aamcore.fitting.residuals import ResidualFunction, WarpFn
-from aamcore.fitting.result import FailureTest, FitResult
+from aamcore.fitting.result import FitResult
 from aamcore.model.aam import AAM
-from aamcore.model.similarity import apply_pose
+from aamcore.model.similarity import Similarity
+
+if TYPE_CHECKING:
+    from aamcore.fitting.model import FittingModel
+
+MAX_ITERATIONS = 30
 
 
 def shape_basis(mean: np.ndarray, modes: np.ndarray) -> np.ndarray:
@@ -66,7 +74,7 @@ class ProjectOutInverseCompositional:
     def __init__(
         self,
         aam: AAM,
-        max_iterations: int = 30,
+        max_iterations: int = MAX_ITERATIONS,
         warp: WarpFn | None = None,
         failure: FailureTest | None = None,
     ) -> None:
@@ -105,6 +113,14 @@ class ProjectOutInverseCompositional:
             np.flatnonzero(np.any(frame.triangles == v, axis=1)) for v in range(len(self.s0))
         ]
 
+    @classmethod
+    def from_model(
+        cls, model: FittingModel, settings: AlgorithmSettings
+    ) -> ProjectOutInverseCompositional:
+        """The fitter of ``model``'s AAM (it learns nothing beyond the AAM)."""
+        return cls(model.aam, settings.max_iterations or MAX_ITERATIONS, settings.warp,
+                   settings.failure)
+
     def _affines(self, shape: np.ndarray) -> np.ndarray:
         """Affine maps (T, 2, 3) from each frame triangle to its image triangle."""
         tri = self.aam.frame.triangles
@@ -126,39 +142,41 @@ class ProjectOutInverseCompositional:
         """Fit from the previous frame's landmarks."""
         return self.run_from_shape(image, previous.points)
 
-    def run(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
-        """Fit from the shape of ``(c0, t0)`` on a prepared ``image``."""
-        return self.run_from_shape(image, self.residual.shape(c0, t0))
+    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> FitResult:
+        """Fit from the shape of ``(c0, start)`` on a prepared ``image``."""
+        return self.run_from_shape(image, self.residual.shape(c0, start.params))
 
     def run_from_shape(self, image: np.ndarray, shape: np.ndarray) -> FitResult:
         """Fit from a start ``shape`` (N, 2) on a prepared ``image``."""
         shape_model = self.aam.shape
-        b, t = shape_model.fit_points(shape)
-        shape = apply_pose(t, shape_model.instance(b))
+        b, sim = shape_model.fit_points(shape)
+        shape = sim.apply(shape_model.instance(b))
         errors, seconds = [], []
-        best = (np.inf, shape, b, t)
-        iterations = 0
+        best = (np.inf, shape, b, sim)
+        iterations, converged = 0, False
         for _ in range(self.max_iterations):
-            start = time.perf_counter()
+            begun = time.perf_counter()
             e = self.residual.image_texture(image, shape) - self.a0
             e_po = e - self.texture_basis @ (self.texture_basis.T @ e)
             error = float(e_po @ e_po) / e_po.size
             errors.append(error)
             if error < best[0]:
-                best = (error, shape, b, t)
+                best = (error, shape, b, sim)
             elif error > best[0] * 1.5:
                 break
             dq = (self.R @ e).astype(np.float64)
             target = self.compose(shape, dq)
-            b, t = shape_model.fit_points(target, iterations=2)
-            shape = apply_pose(t, shape_model.instance(b))
+            b, sim = shape_model.fit_points(target, iterations=2)
+            shape = sim.apply(shape_model.instance(b))
             iterations += 1
-            seconds.append(time.perf_counter() - start)
+            seconds.append(time.perf_counter() - begun)
             if np.abs(self.Q @ dq).max() < 0.02:  # under 1/50 px per point
+                converged = True
                 break
-        error, shape, b, t = best
+        error, shape, b, sim = best
         g = self.residual.image_texture(image, shape)
         c = self.aam.combined.params(b, self.aam.texture.params(g.astype(np.float64)))
         points = shape
         reason = self.failure(c, points)
-        return FitResult(points, c, t, error, iterations, bool(reason), reason, seconds, errors)
+        return FitResult(points, c, sim, error, iterations, converged, bool(reason), reason,
+                         seconds, errors)

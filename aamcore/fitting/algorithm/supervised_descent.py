@@ -15,15 +15,21 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from aamcore.fitting.algorithm.base import AlgorithmSettings
 from aamcore.fitting.algorithm.project_out_ic import shape_basis
+from aamcore.fitting.failure import FailureTest
 from aamcore.fitting.features import FrameHog
 from aamcore.fitting.residuals import ResidualFunction, WarpFn
-from aamcore.fitting.result import FailureTest, FitResult
+from aamcore.fitting.result import FitResult
 from aamcore.model.aam import AAM
-from aamcore.model.similarity import apply_pose, invert_pose
+from aamcore.model.similarity import Similarity
+
+if TYPE_CHECKING:
+    from aamcore.fitting.model import FittingModel
 
 
 @dataclass(frozen=True)
@@ -43,14 +49,14 @@ class DescentCascade:
 
 
 def model_frame_step(
-    basis: np.ndarray, shape: np.ndarray, target: np.ndarray, t: np.ndarray
+    basis: np.ndarray, shape: np.ndarray, target: np.ndarray, similarity: Similarity
 ) -> np.ndarray:
     """Coordinates (Q,) in ``basis`` of the move from ``shape`` to ``target`` in the model frame.
 
-    Both shapes are (N, 2) image points; ``t`` is the pose of ``shape``.
+    Both shapes are (N, 2) image points; ``similarity`` places ``shape``'s model frame.
     """
-    inverse = invert_pose(t)
-    delta = apply_pose(inverse, target) - apply_pose(inverse, shape)
+    inverse = similarity.inverse()
+    delta = inverse.apply(target) - inverse.apply(shape)
     return basis.T @ delta.ravel()
 
 
@@ -86,6 +92,13 @@ class SupervisedDescent:
         self.texture_mean = aam.texture.mean.astype(np.float32)
         self.texture_components = np.ascontiguousarray(aam.texture.pca.components, np.float32)
 
+    @classmethod
+    def from_model(cls, model: FittingModel, settings: AlgorithmSettings) -> SupervisedDescent:
+        """The cascade ``model`` learned."""
+        if model.cascade is None:
+            raise ValueError("this model has no supervised-descent cascade: train it with `--fit`")
+        return cls(model.aam, model.cascade, settings.warp, settings.failure)
+
     def features_at(self, image: np.ndarray, shape: np.ndarray) -> np.ndarray:
         """Feature vector (D + 1,) with a trailing 1 for the bias."""
         texture = self.residual.warp(image, shape)
@@ -93,11 +106,13 @@ class SupervisedDescent:
             texture = texture.mean(axis=1)
         return np.append(self.features(texture), np.float32(1.0))
 
-    def step(self, image: np.ndarray, shape: np.ndarray, t: np.ndarray, stage: int) -> np.ndarray:
-        """Shape (N, 2) after one stage from ``shape`` whose pose is ``t``."""
+    def step(
+        self, image: np.ndarray, shape: np.ndarray, similarity: Similarity, stage: int
+    ) -> np.ndarray:
+        """Shape (N, 2) after one stage from ``shape`` whose model frame ``similarity`` places."""
         dq = self.features_at(image, shape) @ self.weights[stage]
-        model = apply_pose(invert_pose(t), shape) + (self.basis @ dq).reshape(-1, 2)
-        return apply_pose(t, model)
+        model = similarity.inverse().apply(shape) + (self.basis @ dq).reshape(-1, 2)
+        return similarity.apply(model)
 
     def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
         """Fit from the pose of the previous frame's fit.
@@ -106,26 +121,26 @@ class SupervisedDescent:
         of start the cascade learned from; starting from the previous
         landmarks themselves would let each frame's small bias accumulate.
         """
-        _, t = self.aam.shape.fit_points(previous.points, iterations=1)
-        return self.run(image, np.zeros(self.aam.n_appearance), t)
+        _, sim = self.aam.shape.fit_points(previous.points, iterations=1)
+        return self.run(image, np.zeros(self.aam.n_appearance), sim)
 
-    def run(self, image: np.ndarray, c0: np.ndarray, t0: np.ndarray) -> FitResult:
-        """Fit from the shape of ``(c0, t0)`` on a prepared ``image``."""
+    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> FitResult:
+        """Fit from the shape of ``(c0, start)`` on a prepared ``image``."""
         shape_model = self.aam.shape
-        shape = self.residual.shape(c0, t0)
+        shape = self.residual.shape(c0, start.params)
         if np.any(c0):
-            b, t = shape_model.fit_points(shape, iterations=2)
-        else:  # the mean shape placed by t0: nothing to fit
-            b, t = np.zeros(shape_model.n_modes), np.asarray(t0, dtype=np.float64)
+            b, sim = shape_model.fit_points(shape, iterations=2)
+        else:  # the mean shape placed by the start: nothing to fit
+            b, sim = np.zeros(shape_model.n_modes), start
         seconds = []
         for stage in range(len(self.weights)):
-            start = time.perf_counter()
-            target = self.step(image, shape, t, stage)
+            begun = time.perf_counter()
+            target = self.step(image, shape, sim, stage)
             if not np.all(np.isfinite(target)):
                 break
-            b, t = shape_model.fit_points(target, iterations=2)
-            shape = apply_pose(t, shape_model.instance(b))
-            seconds.append(time.perf_counter() - start)
+            b, sim = shape_model.fit_points(target, iterations=2)
+            shape = sim.apply(shape_model.instance(b))
+            seconds.append(time.perf_counter() - begun)
         g = self.residual.image_texture(image, shape)
         centred = g - self.texture_mean
         b_g = centred @ self.texture_components
@@ -133,4 +148,5 @@ class SupervisedDescent:
         # The texture model's residual: its components are orthonormal.
         error = max(float(centred @ centred - b_g @ b_g), 0.0) / g.size
         reason = self.failure(c, shape)
-        return FitResult(shape, c, t, error, len(seconds), bool(reason), reason, seconds, [error])
+        return FitResult(shape, c, sim, error, len(seconds), True, bool(reason), reason, seconds,
+                         [error])

@@ -10,7 +10,7 @@ update matrix ``R`` with ``delta_p = R r``, is stored in the model file.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,7 +18,7 @@ from aamcore.fitting.pyramid import pyramid
 from aamcore.fitting.residuals import ResidualFunction
 from aamcore.io import DatasetError, FaceSample
 from aamcore.model.aam import AAM
-from aamcore.model.similarity import compose_poses
+from aamcore.model.similarity import Similarity
 
 METHODS = ("jacobian", "regression")
 
@@ -103,12 +103,15 @@ class UpdateMatrix:
         Training images used.
     experiments : int
         Perturbed samples used.
+    scheme : PerturbationScheme
+        The displacements it was trained on.
     """
 
     R: np.ndarray
     method: str
     images: int
     experiments: int
+    scheme: PerturbationScheme = PerturbationScheme()
 
 
 def perturbed_residuals(
@@ -127,13 +130,13 @@ def perturbed_residuals(
     raw = pyramid(sample.load_image(), level + 1)[level]
     factor = 0.5**level
     points = (sample.points + 0.5) * factor - 0.5
-    c0, t0 = aam.parameters_of(raw, points)
+    c0, start = aam.parameters_of(raw, points)
     image = aam.prepare_image(raw, points)
     n_c = aam.n_appearance
     out = np.empty((len(displacements), aam.texture_basis.shape[0]), dtype=np.float32)
     for j, dp in enumerate(displacements):
         c = c0 + dp[:n_c]
-        t = compose_poses(t0, dp[n_c:])
+        t = (start @ Similarity.from_params(dp[n_c:])).params
         out[j], _ = residual(image, c, t)
     return out
 
@@ -204,7 +207,7 @@ def train_update(
         dg = np.vstack(blocks).T.astype(np.float64)  # (m, s)
         dp = np.tile(displacements, (used, 1)).T  # (n_p, s)
         R = principal_component_regression(dp, dg, regression_variance)
-    return UpdateMatrix(R.astype(np.float32), method, used, used * len(displacements))
+    return UpdateMatrix(R.astype(np.float32), method, used, used * len(displacements), scheme)
 
 
 def principal_component_regression(
@@ -228,57 +231,3 @@ def principal_component_regression(
     k = max(int(np.searchsorted(cumulative, variance) + 1), dp.shape[0])
     phi, eigenvalues = phi[:, :k], eigenvalues[:k]
     return (dp @ phi / eigenvalues) @ (phi.T @ dg.T)
-
-
-def _update_name(level: int) -> str:
-    return "update" if level == 0 else f"update_level{level}"
-
-
-def attach_update(
-    aam: AAM, update: UpdateMatrix, scheme: PerturbationScheme, level: int = 0
-) -> AAM:
-    """Store ``update`` (for pyramid ``level``) in ``aam``'s attachments."""
-    name = _update_name(level)
-    aam.attachments[f"{name}_R"] = update.R
-    aam.attachment_header[name] = {
-        "method": update.method,
-        "images": update.images,
-        "experiments": update.experiments,
-        "scheme": asdict(scheme),
-    }
-    return aam
-
-
-def stored_levels(aam: AAM) -> int:
-    """Number of pyramid levels with a stored update matrix."""
-    level = 0
-    while f"{_update_name(level)}_R" in aam.attachments:
-        level += 1
-    return level
-
-
-def stored_update(aam: AAM, level: int = 0) -> UpdateMatrix:
-    """The update matrix stored with ``aam`` for pyramid ``level``.
-
-    Raises
-    ------
-    ValueError
-        If the model was saved without one.
-    """
-    name = _update_name(level)
-    if f"{name}_R" not in aam.attachments:
-        raise ValueError(
-            f"this model has no update matrix for pyramid level {level}: "
-            "train it with `aamtrack train --fit`"
-        )
-    info = aam.attachment_header.get(name, {})
-    R = aam.attachments[f"{name}_R"]
-    expected = (aam.n_appearance + 4, aam.texture_basis.shape[0])
-    if R.shape != expected:
-        raise ValueError(f"stored update matrix has shape {R.shape}, the model needs {expected}")
-    return UpdateMatrix(
-        R.astype(np.float32),
-        info.get("method", "?"),
-        info.get("images", 0),
-        info.get("experiments", 0),
-    )

@@ -1,0 +1,19 @@
+"""The defaults of the library, the command line and the services, defined once.
+
+Everything that has a default and is chosen in more than one place (the
+fitting algorithm, the failure test, the assumed field of view, the model the
+stack trains on first use) reads it from here.
+"""
+
+from __future__ import annotations
+
+ALGORITHM = "supervised-descent"
+"""The fitting algorithm: the learned cascade, the most accurate on in-the-wild faces."""
+FAILURE_TEST = "chi2"
+"""How a failed fit is recognised (see :class:`aamcore.fitting.failure.FailureTest`)."""
+FOV_DEG = 60.0
+"""Horizontal field of view assumed for a camera without a calibration, degrees."""
+MODEL_DATASET = "lfpw"
+"""What the default fitting model is trained on."""
+MODEL_UPDATE_IMAGES = 30
+"""Images the default model's update matrices are learned from."""

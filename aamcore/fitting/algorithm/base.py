@@ -1,0 +1,57 @@
+"""What every fitting algorithm offers, and what it is built from."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+
+from aamcore.fitting.failure import FailureTest
+from aamcore.fitting.residuals import WarpFn
+from aamcore.fitting.result import FitResult
+from aamcore.model.similarity import Similarity
+
+if TYPE_CHECKING:
+    from aamcore.fitting.model import FittingModel
+
+
+@dataclass(frozen=True)
+class AlgorithmSettings:
+    """Run-time choices shared by the algorithms.
+
+    Attributes
+    ----------
+    failure : FailureTest
+        How a failed fit is recognised.
+    warp : callable, optional
+        Texture sampler ``warp(image, shape) -> (M, C)``; the AAM's CPU warp
+        by default (the GPU-warp worker offers the same call).
+    max_iterations : int, optional
+        Iteration limit of the iterative algorithms (each has its own default).
+    """
+
+    failure: FailureTest
+    warp: WarpFn | None = None
+    max_iterations: int | None = None
+
+
+class Algorithm(Protocol):
+    """A fitting algorithm: costly precomputation in its constructor, per-frame work in
+    :meth:`run` and :meth:`track`, both on an image prepared by
+    :meth:`aamcore.model.aam.AAM.prepare_image`."""
+
+    name: str
+
+    @classmethod
+    def from_model(cls, model: FittingModel, settings: AlgorithmSettings) -> Algorithm:
+        """Build the algorithm from what the fitting model learned."""
+        ...
+
+    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> FitResult:
+        """Fit from appearance ``c0`` (t_c,) placed by ``start``."""
+        ...
+
+    def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
+        """Fit from the previous frame's fit, in whatever way suits the algorithm."""
+        ...
