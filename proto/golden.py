@@ -48,8 +48,11 @@ GREY_JPEG_8X8 = bytes.fromhex(
 """An 8 x 8 mid-grey JPEG (331 bytes)."""
 
 
+RUN_ID = "run-8f3a2c"
+
+
 def _header(producer: str, frame_index: int = 42) -> Header:
-    return Header("cam0", frame_index, CAPTURE_NS, producer, CAPTURE_NS + 5_000_000)
+    return Header("cam0", frame_index, CAPTURE_NS, producer, CAPTURE_NS + 5_000_000, RUN_ID)
 
 
 def golden_messages() -> dict[str, Message]:
@@ -57,7 +60,7 @@ def golden_messages() -> dict[str, Message]:
     index = np.arange(68)
     landmarks = np.stack([100 + (index % 17) * 8.5, 150 + (index // 17) * 12.25], axis=1)
     messages: list[Message] = [
-        Frame.from_array(_header("capture"), np.arange(72, dtype=np.uint8).reshape(4, 6, 3)),
+        Frame.from_array(_header("source"), np.arange(72, dtype=np.uint8).reshape(4, 6, 3)),
         FaceBoxes(
             _header("detector"),
             image_width=640,
@@ -70,7 +73,9 @@ def golden_messages() -> dict[str, Message]:
             scheme="ibug68",
             landmarks=landmarks,
             appearance=np.array([0.5, -1.25, 0.125, 2.0, -0.0625]),
-            pose=np.array([0.03125, -0.015625, 12.5, -7.75]),
+            similarity=np.array([1.03125, -0.015625, 12.5, -7.75]),
+            image_width=640,
+            image_height=480,
             texture_error=0.0123,
             iterations=7,
             converged=True,
@@ -108,12 +113,14 @@ def golden_messages() -> dict[str, Message]:
             frames_out=990,
             dropped=8,
             rejected=2,
+            lost=1,
+            ignored=3,
             latency_p50_ms=4.5,
             latency_p99_ms=11.25,
             restarts=0,
             message="",
         ),
-        EndOfStream(_header("capture"), total_frames=43, reason="end_of_file"),
+        EndOfStream(_header("source"), total_frames=43, reason="end_of_file"),
     ]
     return {m.KIND: m for m in messages}
 

@@ -15,8 +15,16 @@ from proto.fields import Int, Str, check_keys, is_int, type_name
 from proto.keys import check_name
 from proto.limits import ProtoError
 
-SCHEMA_VERSION = 1
-"""Version of the message contract; any change to a field or a rule bumps it."""
+SCHEMA_VERSION = 2
+"""Version of the message contract; any change to a field or a rule bumps it.
+Version 2: ``run_id`` in the header; ``fit.similarity`` (was ``pose``) and the
+fit's frame size; ``status.lost`` and ``status.ignored``."""
+
+
+def check_run_id(value: str, what: str = "run id") -> str:
+    """A run id is empty (no run) or a name (:func:`proto.keys.check_name`)."""
+    return value if value == "" else check_name(value, what)
+
 
 _SPECS = {
     "stream_id": Str(validate=check_name),
@@ -24,6 +32,7 @@ _SPECS = {
     "capture_time_ns": Int(),
     "producer": Str(validate=check_name),
     "publish_time_ns": Int(),
+    "run_id": Str(validate=check_run_id),
 }
 WIRE_KEYS = ("schema_version", "kind", *_SPECS)
 """Keys of the wire header, in their order."""
@@ -46,6 +55,11 @@ class Header:
         Name of the service that published the message; a key chunk.
     publish_time_ns : int
         Publication time, nanoseconds since the Unix epoch (UTC).
+    run_id : str
+        The run of the source the frame comes from (a name, or empty outside
+        any run): a source starts a new run each time it starts, so that a
+        frame's index and size are read within its run, and messages of other
+        runs can be told apart and ignored.
     """
 
     stream_id: str
@@ -53,6 +67,7 @@ class Header:
     capture_time_ns: int
     producer: str
     publish_time_ns: int
+    run_id: str = ""
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -61,12 +76,17 @@ class Header:
 
     @classmethod
     def now(
-        cls, stream_id: str, frame_index: int, producer: str, capture_time_ns: int | None = None
+        cls,
+        stream_id: str,
+        frame_index: int,
+        producer: str,
+        capture_time_ns: int | None = None,
+        run_id: str = "",
     ) -> Header:
         """A header published now; the capture time defaults to now as well."""
         published = time.time_ns()
         captured = published if capture_time_ns is None else capture_time_ns
-        return cls(stream_id, frame_index, captured, producer, published)
+        return cls(stream_id, frame_index, captured, producer, published, run_id)
 
     def to_dict(self, kind: str) -> dict[str, Any]:
         """The wire map of this header for a message of ``kind``."""

@@ -34,6 +34,16 @@ TOPICS = ("frame", "boxes", "fit", "pose", "expression", "overlay", "eos")
 STATUS = "status"
 DETECT = "detect"
 ALIVE = "alive"
+OWNERS: dict[str, str] = {
+    "frame": "source",
+    "eos": "source",
+    "boxes": "detector",
+    "fit": "fitter",
+    "pose": "pose",
+    "expression": "expression",
+    "overlay": "ar",
+}
+"""The service that owns each topic: the only producer whose messages on it count."""
 
 NAME_MAX_LEN = 64
 _NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
@@ -104,6 +114,15 @@ def topic_wildcard(kind: str) -> str:
     if kind not in TOPICS:
         raise ProtoError(f"kind {kind!r} has no per-stream key; topics are {list(TOPICS)}")
     return f"{ROOT}/*/{kind}"
+
+
+def owner_of(key: str) -> str | None:
+    """The producer that owns a concrete key (``status/<service>``: that service), or None."""
+    try:
+        _, topic, service = parse_key(key)
+    except ProtoError:
+        return None
+    return service if topic == STATUS else OWNERS.get(topic)
 
 
 def parse_key(key: str) -> tuple[str, str, str | None]:

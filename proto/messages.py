@@ -249,9 +249,12 @@ class Fit(Message):
         ``(N, 2)`` float32 landmark positions ``x, y`` in frame pixels.
     appearance : numpy.ndarray
         ``(k,)`` float32 combined appearance parameters ``c``.
-    pose : numpy.ndarray
-        ``(p,)`` float32 global shape transform parameters (4 for a
-        similarity: ``a, b, tx, ty``).
+    similarity : numpy.ndarray
+        ``(4,)`` float32 ``a, b, tx, ty``: the 2D similarity
+        ``x -> [[a, -b], [b, a]] x + (tx, ty)`` placing the model frame in the
+        image (``a = s cos theta``, ``b = s sin theta``); ``(0,)`` without landmarks.
+    image_width, image_height : int
+        Size of the frame fitted, pixels.
     texture_error : float
         Mean squared texture residual, >= 0; NaN when it could not be computed.
     iterations : int
@@ -270,7 +273,9 @@ class Fit(Message):
     scheme: str = spec(NAME)
     landmarks: np.ndarray = small("f4", None, 2)
     appearance: np.ndarray = small("f4", None)
-    pose: np.ndarray = small("f4", None)
+    similarity: np.ndarray = small("f4", None)
+    image_width: int = spec(WIDTH)
+    image_height: int = spec(HEIGHT)
     texture_error: float = spec(Float(0.0, math.inf, allow_nan=True))
     iterations: int = spec(COUNT)
     converged: bool = spec(Bool())
@@ -279,6 +284,8 @@ class Fit(Message):
     warp_path: str = spec(Str(choices=WARP_PATHS))
 
     def _check(self) -> None:
+        if len(self.similarity) not in (0, 4):
+            raise ProtoError(f"fit.similarity: {len(self.similarity)} values, expected 4 (or 0)")
         if self.failed != bool(self.failure_reason):
             raise ProtoError(
                 "fit.failure_reason: must be non-empty exactly when failed is true "
@@ -372,7 +379,12 @@ class Status(Message):
         One of :data:`STATES`.
     frames_in, frames_out, dropped, rejected : int
         Counts since the service started: messages received, published,
-        dropped (e.g. stale frames skipped), rejected (failed to decode).
+        dropped by design (e.g. stale frames skipped), rejected (invalid).
+    lost : int
+        Frames that never arrived: gaps in the frame numbering of its run.
+    ignored : int
+        Valid messages from outside the run (another run or a producer that
+        does not own the key), not acted on.
     latency_p50_ms, latency_p99_ms : float
         Median and 99th percentile processing latency in milliseconds over a
         recent window; NaN before any frame.
@@ -389,6 +401,8 @@ class Status(Message):
     frames_out: int = spec(COUNT)
     dropped: int = spec(COUNT)
     rejected: int = spec(COUNT)
+    lost: int = spec(COUNT)
+    ignored: int = spec(COUNT)
     latency_p50_ms: float = spec(Float(0.0, math.inf, allow_nan=True))
     latency_p99_ms: float = spec(Float(0.0, math.inf, allow_nan=True))
     restarts: int = spec(COUNT)

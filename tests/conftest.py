@@ -7,6 +7,14 @@ from pathlib import Path
 import pytest
 
 from aamcore.config import data_root
+from aamcore.fitting.model import FittingModel
+from aamcore.fitting.training.prepare import train_fitting_model
+from aamcore.io.jaffe import JaffeSet, load_jaffe
+from aamcore.model.training import TrainConfig, train_aam
+
+MODEL_LIMIT = 120
+"""Training images of the small test AAM (cached after the first run)."""
+MODEL_IMAGES = 10
 
 
 @pytest.fixture(scope="session")
@@ -59,3 +67,54 @@ def lfpw_fit_model_path() -> Path:
     from aamcore.fitting.training.prepare import default_model_path
 
     return default_model_path(limit=150, max_images=10)
+
+
+@pytest.fixture(scope="session")
+def model_path() -> Path:
+    """A small LFPW AAM ready for fitting, from the user cache (trained on first use)."""
+    from aamcore.fitting.training.prepare import default_model_path
+
+    return default_model_path(max_images=MODEL_IMAGES, limit=MODEL_LIMIT)
+
+
+@pytest.fixture(scope="session")
+def classifier_path(model_path: Path) -> Path:
+    """The expression classifier for :func:`model_path` (trained on JAFFE on first use)."""
+    from aamcore.expression.training import classifier_path as cached
+
+    return cached(model_path)
+
+
+@pytest.fixture(scope="session")
+def jaffe_dir(data_dir: Path) -> Path:
+    return data_dir / "jaffe"
+
+
+@pytest.fixture(scope="session")
+def jaffe_set(jaffe_dir: Path) -> JaffeSet:
+    return load_jaffe(jaffe_dir)
+
+
+@pytest.fixture(scope="session")
+def imm_train(imm_set):
+    return [s for s in imm_set.samples if int(s.subject) <= 9]
+
+
+@pytest.fixture(scope="session")
+def imm_test(imm_set):
+    return [s for s in imm_set.samples if int(s.subject) > 9]
+
+
+@pytest.fixture(scope="session")
+def imm_fit_model_path(imm_set, imm_train, tmp_path_factory) -> Path:
+    """A grey IMM model with everything fitting needs, trained on subjects 01-09."""
+    aam = train_aam(
+        imm_train, imm_set.scheme, TrainConfig(n_pixels=6000, colour=False, shape_variance=0.98)
+    )
+    model = train_fitting_model(aam, imm_train, max_images=25)
+    return model.save(tmp_path_factory.mktemp("fit") / "imm_fit.npz")
+
+
+@pytest.fixture(scope="session")
+def imm_fit_model(imm_fit_model_path):
+    return FittingModel.load(imm_fit_model_path)

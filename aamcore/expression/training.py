@@ -91,20 +91,3 @@ def classifier_path(model_path: str | Path) -> Path:
         path.parent.mkdir(parents=True, exist_ok=True)
         train_classifier(model_path).save(path)
     return path
-
-
-def classifier_argv(model_path: str | Path, classifier: str | None = None) -> list[str]:
-    """Arguments for the expression service: the AAM and its classifier.
-
-    The classifier is ``classifier`` if given, else the cached one (trained if
-    needed). When none can be had the service is started without one; it
-    then runs and says why in its status.
-    """
-    argv = ["--model", str(model_path)]
-    if classifier:
-        return [*argv, "--classifier", classifier]
-    try:
-        return [*argv, "--classifier", str(classifier_path(model_path))]
-    except (DatasetError, OSError, ValueError) as exc:
-        log.warning("no expression classifier: %s", exc)
-        return argv

@@ -1,18 +1,12 @@
 """Fitting an AAM to an image (thesis chapters 6 and 7).
 
-- ``residuals``: the texture residual of a model instance against an image.
-- ``update_training``: learning the update matrix from perturbed training
-  images, by regression (Algorithm 5) or through the Jacobian (Algorithm 6).
-- ``descent_training`` and ``features``: the learned cascade on HOG features.
-- ``algorithm/``: one module per optimisation family:
-  ``FixedJacobian`` (damped Gauss-Newton of Algorithm 7),
-  ``ProjectOutInverseCompositional`` (Matthews & Baker 2004) and
-  ``SupervisedDescent`` (cascaded regression, beyond the thesis).
-- ``result``: what a fit returns.
-- ``fitter``: training what fitting needs (:func:`prepare_fitting`), the
-  :class:`Fitter` facade and the frame-to-frame :class:`Tracker`.
+- ``model``: the :class:`~aamcore.fitting.model.FittingModel`, an AAM with
+  everything its algorithms learned, saved in one file.
+- ``algorithm/``: one module per optimisation family and the registry of their names.
+- ``fitter``: :class:`~aamcore.fitting.fitter.Fitter`, one model and one
+  algorithm, started from a box, a shape or parameters; ``tracker``: frame to
+  frame with re-detection.
+- ``failure``: how a failed fit is recognised; ``result``: what a fit returns.
+- ``residuals``, ``features``, ``pyramid``: what the algorithms compute on images.
+- ``training/``: learning the update matrices, the cascade and the whole fitting model.
 """
-
-from aamcore.fitting.result import FitResult
-
-__all__ = ["FitResult"]

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from aamcore import defaults
-from aamcore.fitting.algorithm import AlgorithmSettings, make_algorithm
+from aamcore.fitting.algorithm import make_algorithm
+from aamcore.fitting.algorithm.base import AlgorithmSettings
 from aamcore.fitting.failure import FailureTest
 from aamcore.fitting.model import FittingModel
 from aamcore.fitting.residuals import WarpFn

@@ -13,11 +13,7 @@ pose whose frame is no longer kept is counted as dropped.
 
 from __future__ import annotations
 
-import argparse
-import collections
-import threading
-import time
-from typing import Any
+from collections.abc import Sequence
 
 import cv2
 import moderngl
@@ -25,43 +21,14 @@ import numpy as np
 
 from aamcore.ar.renderer import GlassesRenderer
 from proto import Frame, HeadPose, Overlay, ProtoError
-from services.bus.runtime import BusOptions, Service, image_of, init_process, service_parser
+from services.ar.options import AROptions
+from services.bus.args import parse_service_args
+from services.bus.images import image_of
+from services.bus.process import init_process
+from services.bus.session import Service
 
 NAME = "ar"
 FRAMES_KEPT = 8
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = service_parser(NAME, "Draw 3D glasses on each frame at the estimated head pose.")
-    parser.add_argument("--jpeg", type=int, default=0, metavar="Q",
-                        help="publish overlays as JPEG of quality Q (default raw)")
-    parser.add_argument("--all-poses", action="store_true",
-                        help="draw unreliable poses too")
-    parser.add_argument("--capacity", type=int, default=2, help="latest poses kept while busy")
-    parser.add_argument("--backend", default="egl", help="moderngl standalone backend")
-    return parser
-
-
-class RecentFrames:
-    """The last :data:`FRAMES_KEPT` frames by index, fed by a Zenoh callback."""
-
-    def __init__(self, svc: Service) -> None:
-        self.svc = svc
-        self._frames: collections.OrderedDict[int, Frame] = collections.OrderedDict()
-        self._lock = threading.Lock()
-
-    def on_frame(self, sample: Any) -> None:
-        frame = self.svc.decode(sample.payload.to_bytes(), "frame", source="frame")
-        if frame is None:
-            return
-        with self._lock:
-            self._frames[frame.header.frame_index] = frame
-            while len(self._frames) > FRAMES_KEPT:
-                self._frames.popitem(last=False)
-
-    def take(self, index: int) -> Frame | None:
-        with self._lock:
-            return self._frames.pop(index, None)
 
 
 def bgr_image(frame: Frame) -> np.ndarray:
@@ -94,7 +61,7 @@ class Compositor:
 
 def overlay_message(svc: Service, pose: HeadPose, image: np.ndarray, jpeg: int) -> Overlay:
     """The overlay of ``image`` (H, W, 3) for the frame of ``pose``."""
-    header = svc.header(pose.header.frame_index, pose.header.capture_time_ns)
+    header = svc.header_for(pose)
     if jpeg <= 0:
         return Overlay.from_array(header, image)
     ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, jpeg])
@@ -103,62 +70,63 @@ def overlay_message(svc: Service, pose: HeadPose, image: np.ndarray, jpeg: int) 
     return Overlay.from_jpeg(header, data.tobytes(), image.shape[1], image.shape[0])
 
 
-def serve(svc: Service, compositor: Compositor, args: argparse.Namespace) -> None:
+def draw(svc: Service, compositor: Compositor, pose: HeadPose, frame: Frame, jpeg: int
+         ) -> Overlay:
+    """The overlay of ``frame`` at ``pose``.
+
+    Raises
+    ------
+    ProtoError, ValueError
+        For a pose made for another image size, or a frame that does not decode.
+    """
+    image = bgr_image(frame)
+    if (pose.image_width, pose.image_height) != (image.shape[1], image.shape[0]):
+        raise ProtoError(f"pose for a {pose.image_width} x {pose.image_height} image, "
+                         f"frame is {image.shape[1]} x {image.shape[0]}")
+    return overlay_message(svc, pose, compositor.render(image, pose), jpeg)
+
+
+def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
     """Render overlays until stopped."""
-    frames = RecentFrames(svc)
-    svc.subscribe(svc.key("frame"), frames.on_frame)
-    poses = svc.inbox("pose", capacity=args.capacity)
-    svc.ready(f"renderer {compositor.ctx.info.get('GL_RENDERER', '?')}")
+    frames = svc.recent("frame", FRAMES_KEPT)
     unreliable = 0
-    while not svc.stopping:
-        got = poses.get(timeout=0.5)
-        if got is None:
-            continue
+    poses = svc.messages("pose", capacity=opts.capacity)
+    svc.ready(f"renderer {compositor.ctx.info.get('GL_RENDERER', '?')}")
+    for got in poses:
         pose = got.message
         assert isinstance(pose, HeadPose)
-        if not (pose.reliable or args.all_poses):
+        if not (pose.reliable or opts.all_poses):
             unreliable += 1
+            svc.set_state("running", f"{unreliable} unreliable poses not drawn")
             continue
-        frame = frames.take(pose.header.frame_index)
+        frame = frames.take(pose.header.run_id, pose.header.frame_index)
         if frame is None:
             svc.stats.dropped += 1  # its frame is gone: never received or pushed out
             continue
-        started = time.perf_counter()
         try:
-            image = bgr_image(frame)
-            if (pose.image_width, pose.image_height) != (image.shape[1], image.shape[0]):
-                raise ProtoError(f"pose for a {pose.image_width} x {pose.image_height} image, "
-                                 f"frame is {image.shape[1]} x {image.shape[0]}")
-            message = overlay_message(svc, pose, compositor.render(image, pose), args.jpeg)
+            svc.publish(draw(svc, compositor, pose, frame.message, opts.jpeg))
         except (ProtoError, ValueError) as exc:
             svc.reject("pose", f"no overlay: {exc}")
-            continue
-        svc.publish(message)
-        svc.stats.latency.add(1000 * (time.perf_counter() - started))
-        svc.set_state("running", f"{unreliable} unreliable poses not drawn")
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run the AR service with parsed arguments; the exit code."""
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point: ``python -m services.ar.service``."""
+    args = parse_service_args(NAME, "Draw 3D glasses on each frame at the estimated head pose.",
+                              AROptions, argv)
     log = init_process(NAME, args.verbose)
     try:
-        ctx = moderngl.create_standalone_context(backend=args.backend)
+        ctx = moderngl.create_standalone_context(backend=args.options.backend)
     except Exception as exc:  # moderngl raises plain Exception when no context can be made
-        log.error("no OpenGL context (backend %s): %s", args.backend, exc)
+        log.error("no OpenGL context (backend %s): %s", args.options.backend, exc)
         return 1
     compositor = Compositor(ctx)
     try:
-        with Service(NAME, BusOptions.from_args(args)) as svc:
-            serve(svc, compositor, args)
+        with Service(NAME, args.bus) as svc:
+            serve(svc, compositor, args.options)
     finally:
         compositor.release()
         ctx.release()
     return 0
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Entry point: ``python -m services.ar.service``."""
-    return run(build_parser().parse_args(argv))
 
 
 if __name__ == "__main__":

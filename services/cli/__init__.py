@@ -20,6 +20,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "services.cli.pose_cmd",
     "services.cli.expression_cmd",
     "services.cli.run_cmd",
+    "services.cli.bus_cmd",
     "services.cli.router_cmd",
 )
 

@@ -15,9 +15,9 @@ give no confidence, so each box scores 1.
 
 from __future__ import annotations
 
-import argparse
 import threading
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -25,22 +25,14 @@ import numpy as np
 from aamcore.detection.haar import HaarFaceDetector
 from proto import FaceBoxes, Frame, ProtoError, encode
 from proto.keys import detect_key
-from services.bus.runtime import BusOptions, Service, image_of, init_process, service_parser
+from services.bus.args import parse_service_args
+from services.bus.images import image_of
+from services.bus.inbox import Latest
+from services.bus.process import init_process
+from services.bus.session import Service
+from services.detector.options import DetectorOptions
 
 NAME = "detector"
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = service_parser(NAME, "Haar face detection on request and while no face is tracked.")
-    parser.add_argument("--rate", type=float, default=2.0,
-                        help="searches a second while no face is tracked (0: only on request)")
-    parser.add_argument("--idle", type=float, default=1.0,
-                        help="seconds without a good fit after which to search")
-    parser.add_argument("--scale-factor", type=float, default=1.2, help="Haar scale step")
-    parser.add_argument("--min-size", type=int, default=60, help="smallest face side, pixels")
-    parser.add_argument("--max-side", type=int, default=320,
-                        help="downscale frames to this longer side before detecting (0: never)")
-    return parser
 
 
 class Detection:
@@ -58,16 +50,15 @@ class Detection:
         with self.lock:
             found = self.detector.detect(image)
         self.svc.stats.latency.add(1000 * (time.perf_counter() - started))
-        header = self.svc.header(frame.header.frame_index, frame.header.capture_time_ns)
-        return FaceBoxes(header, frame.width, frame.height, found.astype(np.float32),
-                         np.ones(len(found), np.float32))
+        return FaceBoxes(self.svc.header_for(frame), frame.width, frame.height,
+                         found.astype(np.float32), np.ones(len(found), np.float32))
 
     def answer(self, query: Any) -> None:
         """Queryable callback: reply with the boxes of the frame in the query."""
         payload = query.payload.to_bytes() if query.payload is not None else b""
-        frame = self.svc.decode(payload, "frame", source="detect query")
+        frame = self.svc.screen.check(payload, str(query.key_expr), "frame")
         if frame is None:
-            query.reply_err(b"the query payload is not a valid frame message")
+            query.reply_err(b"the query payload is not a valid frame message of this run")
             return
         self.svc.stats.count_in(frame.header)
         try:
@@ -78,8 +69,7 @@ class Detection:
             return
         data = encode(boxes)
         query.reply(query.key_expr, data)
-        self.svc.put(boxes.key(), data)
-        self.svc.stats.frames_out += 1
+        self.svc.publish(boxes)
 
 
 class Tracking:
@@ -90,7 +80,7 @@ class Tracking:
         self.last_good = 0.0
 
     def on_fit(self, sample: Any) -> None:
-        fit = self.svc.decode(sample.payload.to_bytes(), "fit", source="fit")
+        fit = self.svc.screen.check(sample.payload.to_bytes(), str(sample.key_expr), "fit")
         if fit is not None and not fit.failed:
             self.last_good = time.monotonic()
 
@@ -98,66 +88,49 @@ class Tracking:
         return time.monotonic() - self.last_good
 
 
-class LatestSample:
-    """The last sample of a key, not decoded until asked for."""
-
-    def __init__(self) -> None:
-        self.sample: Any = None
-        self.seen = 0
-
-    def on_sample(self, sample: Any) -> None:
-        self.sample = sample
-        self.seen += 1
-
-    def take(self) -> Any:
-        sample, self.sample = self.sample, None
-        return sample
-
-
-def search(svc: Service, detection: Detection, latest: LatestSample) -> None:
+def search(svc: Service, detection: Detection, frames: Latest) -> None:
     """Detect in the latest frame, if any, and publish its boxes."""
-    sample = latest.take()
-    if sample is None:
+    got = frames.take()
+    if got is None:
         return
-    frame = svc.decode(sample.payload.to_bytes(), "frame", source="frame")
-    if frame is None:
-        return
-    svc.stats.count_in(frame.header)
+    svc.stats.count_in(got.message.header)
     try:
-        svc.publish(detection.boxes(frame))
+        svc.publish(detection.boxes(got.message))
     except (ProtoError, ValueError) as exc:
         svc.reject("frame", str(exc))
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run the detector with parsed arguments; the exit code."""
+def serve(svc: Service, detector: HaarFaceDetector, opts: DetectorOptions) -> None:
+    """Answer queries and search while no face is tracked, until stopped."""
+    detection = Detection(svc, detector)
+    tracking = Tracking(svc)
+    svc.queryable(detect_key(svc.stream), detection.answer)
+    svc.subscribe(svc.key("fit"), tracking.on_fit)
+    frames = svc.latest("frame") if opts.rate > 0 else None
+    svc.ready(f"{detector!r}")
+    period = 1.0 / opts.rate if opts.rate > 0 else 1.0
+    while not svc.wait(period):
+        if frames is not None and tracking.lost_for() >= opts.idle:
+            search(svc, detection, frames)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point: ``python -m services.detector.service``."""
+    args = parse_service_args(NAME, "Haar face detection on request and while no face is "
+                              "tracked.", DetectorOptions, argv)
     log = init_process(NAME, args.verbose)
+    opts: DetectorOptions = args.options
     try:
-        detector = HaarFaceDetector(scale_factor=args.scale_factor,
-                                    min_size=(args.min_size, args.min_size),
-                                    max_side=args.max_side or None)
+        detector = HaarFaceDetector(scale_factor=opts.scale_factor,
+                                    min_neighbors=opts.min_neighbors,
+                                    min_size=(opts.min_size, opts.min_size),
+                                    max_side=opts.max_side or None)
     except (FileNotFoundError, RuntimeError, ValueError) as exc:
         log.error("cannot make the Haar detector: %s", exc)
         return 1
-    with Service(NAME, BusOptions.from_args(args)) as svc:
-        detection = Detection(svc, detector)
-        tracking = Tracking(svc)
-        latest = LatestSample()
-        svc.queryable(detect_key(svc.stream), detection.answer)
-        svc.subscribe(svc.key("fit"), tracking.on_fit)
-        if args.rate > 0:
-            svc.subscribe(svc.key("frame"), latest.on_sample)
-        svc.ready(f"{detector!r}")
-        period = 1.0 / args.rate if args.rate > 0 else 1.0
-        while not svc.wait(period):
-            if args.rate > 0 and tracking.lost_for() >= args.idle:
-                search(svc, detection, latest)
+    with Service(NAME, args.bus) as svc:
+        serve(svc, detector, opts)
     return 0
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Entry point: ``python -m services.detector.service``."""
-    return run(build_parser().parse_args(argv))
 
 
 if __name__ == "__main__":

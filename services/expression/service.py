@@ -1,41 +1,32 @@
 """The expression service: classifies the appearance vector of each good fit.
 
-``aamtrack service expression --classifier FILE [--model AAM] [--smooth N]``
+``aamtrack service expression --classifier FILE [--model FILE] [--smooth N]``
 
 Each fit that did not fail is classified by the
 :class:`~aamcore.expression.ExpressionClassifier`; with ``--smooth N`` the
 scores are averaged over the last N good fits (a failed fit or a lost face
 starts the average again) and the message says so. Without a usable
-classifier (none given, unreadable, or trained for another AAM) the service
+classifier (none given, unreadable, or trained for another model) the service
 still runs: it takes fits, publishes no expression and says why in its status
 (state ``degraded``).
 """
 
 from __future__ import annotations
 
-import argparse
 import collections
-import time
+from collections.abc import Sequence
 
 import numpy as np
 
 from aamcore.expression import AAMMismatchError, ClassifierFileError, ExpressionClassifier
 from aamcore.expression.training import model_fingerprint
 from proto import Expression, Fit
-from services.bus.runtime import BusOptions, Service, init_process, service_parser
+from services.bus.args import parse_service_args
+from services.bus.process import init_process
+from services.bus.session import Service
+from services.expression.options import ExpressionOptions
 
 NAME = "expression"
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = service_parser(NAME, "Facial expression of each good fit.")
-    parser.add_argument("--classifier", help="expression classifier file (.npz)")
-    parser.add_argument("--model", help="the AAM model file the fitter uses, to check that the "
-                        "classifier was trained on its appearance vectors")
-    parser.add_argument("--smooth", type=int, default=1, metavar="N",
-                        help="average the scores over the last N good fits (default 1: none)")
-    parser.add_argument("--capacity", type=int, default=8, help="latest fits kept while busy")
-    return parser
 
 
 def load_classifier(path: str | None, model: str | None) -> tuple[ExpressionClassifier | None, str]:
@@ -76,51 +67,43 @@ def expression_message(
     _, scores = classifier.classify(np.asarray(fit.appearance, np.float64))
     scores, smoothed = smoother.add(fit.header.frame_index, scores)
     label = classifier.class_names[int(np.argmax(scores))]
-    header = svc.header(fit.header.frame_index, fit.header.capture_time_ns)
-    return Expression(header, label, classifier.class_names, scores.astype(np.float32), smoothed)
+    return Expression(svc.header_for(fit), label, classifier.class_names,
+                      scores.astype(np.float32), smoothed)
 
 
-def serve(svc: Service, classifier: ExpressionClassifier | None, why: str, args: argparse.Namespace
-          ) -> None:
+def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
+          opts: ExpressionOptions) -> None:
     """Classify fits until stopped."""
-    fits = svc.inbox("fit", capacity=args.capacity)
-    smoother = Smoother(args.smooth)
+    smoother = Smoother(opts.smooth)
+    fits = svc.messages("fit", capacity=opts.capacity)
     if classifier is None:
         svc.log.error("%s; running without expressions", why)
         svc.ready()
         svc.set_state("degraded", why)
     else:
         svc.ready(f"{classifier.kind}, classes {','.join(classifier.class_names)}")
-    while not svc.stopping:
-        got = fits.get(timeout=0.5)
-        if got is None or classifier is None:
-            continue
+    for got in fits:
         fit = got.message
         assert isinstance(fit, Fit)
-        if fit.failed:
+        if classifier is None or fit.failed:
             continue
-        started = time.perf_counter()
         try:
             message = expression_message(svc, fit, classifier, smoother)
         except ValueError as exc:  # an appearance vector of another length or non-finite
             svc.reject("fit", f"not classified: {exc}")
             continue
         svc.publish(message)
-        svc.stats.latency.add(1000 * (time.perf_counter() - started))
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run the expression service with parsed arguments; the exit code."""
-    init_process(NAME, args.verbose)
-    classifier, why = load_classifier(args.classifier, args.model)
-    with Service(NAME, BusOptions.from_args(args)) as svc:
-        serve(svc, classifier, why, args)
-    return 0
-
-
-def main(argv: list[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: ``python -m services.expression.service``."""
-    return run(build_parser().parse_args(argv))
+    args = parse_service_args(NAME, "Facial expression of each good fit.", ExpressionOptions,
+                              argv)
+    init_process(NAME, args.verbose)
+    classifier, why = load_classifier(args.options.classifier, args.options.model)
+    with Service(NAME, args.bus) as svc:
+        serve(svc, classifier, why, args.options)
+    return 0
 
 
 if __name__ == "__main__":

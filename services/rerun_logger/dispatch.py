@@ -19,7 +19,6 @@ from proto.messages import (
 )
 from services.rerun_logger import entities as ent
 from services.rerun_logger.annotations import LandmarkClasses
-from services.rerun_logger.images import DEFAULT_QUALITY
 from services.rerun_logger.loggers import (
     BoxesLogger,
     ExpressionLogger,
@@ -29,6 +28,7 @@ from services.rerun_logger.loggers import (
     PoseLogger,
     StatusLogger,
 )
+from services.rerun_logger.options import DEFAULT_QUALITY
 from services.rerun_logger.series import SeriesWriter
 
 

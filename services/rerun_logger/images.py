@@ -11,8 +11,7 @@ import cv2
 import numpy as np
 
 from proto.messages import Frame, Overlay
-
-DEFAULT_QUALITY = 85
+from services.rerun_logger.options import DEFAULT_QUALITY
 
 
 def encode_jpeg(image: np.ndarray, quality: int = DEFAULT_QUALITY) -> bytes:

@@ -1,6 +1,6 @@
 """Opening a video input (file, camera or stream URL) through OpenCV, with clear errors.
 
-:func:`open_input` checks what it is given before OpenCV sees it (a missing
+:class:`VideoInput` checks what it is given before OpenCV sees it (a missing
 file, an empty one, a file that does not decode, a URL that does not answer
 within a timeout) and raises :class:`SourceError` naming the input and the
 problem. :class:`VideoInput` then yields ``(H, W, 3)`` BGR frames, replaying a
@@ -16,7 +16,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-URL_PREFIXES = ("rtsp://", "rtsps://", "http://", "https://", "udp://", "tcp://", "rtmp://")
+from proto.limits import MAX_IMAGE_HEIGHT, MAX_IMAGE_PIXELS, MAX_IMAGE_WIDTH
+from services.source.options import URL_PREFIXES, SourceOptions
+
 OPEN_TIMEOUT_MS = 5000
 """How long a stream URL may take to answer when opened or read."""
 FALLBACK_FPS = 30.0
@@ -40,6 +42,11 @@ class InputSpec:
             raise ValueError("give exactly one of a video file, a camera index or a stream URL")
         if self.url is not None and not self.url.startswith(URL_PREFIXES):
             raise ValueError(f"stream URL {self.url!r} does not start with one of {URL_PREFIXES}")
+
+    @classmethod
+    def of(cls, options: SourceOptions) -> InputSpec:
+        """The input ``options`` name."""
+        return cls(options.video, options.camera, options.url)
 
     @property
     def is_file(self) -> bool:
@@ -103,6 +110,10 @@ class VideoInput:
                               "(corrupt or empty video)")
         self._first: np.ndarray | None = first
         self.height, self.width = first.shape[:2]
+        problem = frame_size_problem(self.width, self.height)
+        if problem:
+            self._cap.release()
+            raise SourceError(f"{spec.describe()}: {problem}")
         fps = float(self._cap.get(cv2.CAP_PROP_FPS) or 0.0)
         self.fps = fps if 1.0 <= fps <= 1000.0 else FALLBACK_FPS
         self.read_errors = 0
@@ -140,6 +151,10 @@ class VideoInput:
         self.close()
 
 
-def open_input(spec: InputSpec, loops: int = 1) -> VideoInput:
-    """Open ``spec`` (see :class:`VideoInput`)."""
-    return VideoInput(spec, loops)
+def frame_size_problem(width: int, height: int) -> str:
+    """Why frames of ``width`` x ``height`` cannot go on the bus, or ``""``."""
+    if width > MAX_IMAGE_WIDTH or height > MAX_IMAGE_HEIGHT or width * height > MAX_IMAGE_PIXELS:
+        return (f"frames of {width} x {height} exceed the frame limit ({MAX_IMAGE_WIDTH} px a "
+                f"side, {MAX_IMAGE_WIDTH} x {MAX_IMAGE_PIXELS // MAX_IMAGE_WIDTH} in all): "
+                "scale the video down first")
+    return ""

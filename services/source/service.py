@@ -3,60 +3,41 @@
 ``aamtrack service source --video FILE [--pace realtime|fast] [--loop N] [--jpeg Q]``
 
 Frames go out raw (``(H, W, 3)`` BGR; Zenoh moves them through shared memory
-between processes of one host) or JPEG-encoded with ``--jpeg``. Pacing is the
-file's frame rate, or ``fast``: as fast as the fitter answers, with at most
-``--window`` frames in flight (:class:`~services.source.pacing.CreditWindow`).
-At the end the source publishes ``EndOfStream`` with the number of frames it
-published and why it stopped, and exits: 0 at the end of the input or on a
-stop, 1 when the input failed.
+between processes of one host) or JPEG-encoded with ``--jpeg``, numbered from
+0 within the source's run (its run id: ``--run-id`` or a new one at each
+start). Pacing is the file's frame rate, or ``fast``: as fast as the fitter
+answers, with at most ``--window`` frames in flight
+(:class:`~services.source.pacing.CreditWindow`). At the end the source
+publishes ``EndOfStream`` (sent so that it must arrive) with the number of
+frames it published and why it stopped, and exits: 0 at the end of the input
+or on a stop, 1 when the input failed.
 """
 
 from __future__ import annotations
 
-import argparse
+import sys
 import time
-from collections.abc import Callable
+import uuid
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import cv2
 import numpy as np
 
 from proto import EndOfStream, Frame
-from services.bus.runtime import BusOptions, Service, init_process, service_parser
+from services.bus.args import parse_service_args
+from services.bus.process import init_process
+from services.bus.session import Service
 from services.source.capture import InputSpec, SourceError, VideoInput
-from services.source.pacing import PACES, CreditWindow, RealTimePacer
+from services.source.options import SourceOptions
+from services.source.pacing import CreditWindow, RealTimePacer
 
 NAME = "source"
-EOS_LINGER = 0.3
-"""Seconds to keep the session open after end of stream so that it is delivered."""
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = service_parser(NAME, "Publish the frames of a video file, camera or stream URL.")
-    where = parser.add_mutually_exclusive_group(required=True)
-    where.add_argument("--video", help="video file")
-    where.add_argument("--camera", type=int, help="camera index (OpenCV)")
-    where.add_argument("--url", help="stream URL (rtsp://, http://, ...)")
-    parser.add_argument("--pace", choices=PACES, default="realtime",
-                        help="realtime: the file's frame rate; fast: as fast as fits come back")
-    parser.add_argument("--loop", type=int, default=1, metavar="N",
-                        help="play a file N times (0: until stopped); default 1")
-    parser.add_argument("--jpeg", type=int, default=0, metavar="QUALITY",
-                        help="publish JPEG frames of this quality (1-100) instead of raw")
-    parser.add_argument("--window", type=int, default=2,
-                        help="fast pacing: frames published ahead of the last fit (default 2)")
-    parser.add_argument("--answer-timeout", type=float, default=1.0,
-                        help="fast pacing: seconds to wait for a fit before going on")
-    parser.add_argument("--max-frames", type=int, default=0, help="stop after N frames")
-    parser.add_argument("--wait-for", default="", metavar="SERVICES",
-                        help="comma-separated services to wait for before the first frame")
-    parser.add_argument("--wait-timeout", type=float, default=60.0,
-                        help="seconds to wait for --wait-for services (then go on)")
-    return parser
-
-
-def input_spec(args: argparse.Namespace) -> InputSpec:
-    """The input named by ``--video``, ``--camera`` or ``--url``."""
-    return InputSpec(video=args.video, camera=args.camera, url=args.url)
+def new_run_id() -> str:
+    """A fresh run id: ``run-`` and 12 hex digits."""
+    return f"run-{uuid.uuid4().hex[:12]}"
 
 
 def make_frame(
@@ -83,27 +64,27 @@ def frame_problem(image: np.ndarray, size: tuple[int, int]) -> str:
     return ""
 
 
-def make_gate(svc: Service, args: argparse.Namespace, fps: float) -> Callable[[int], bool]:
+def make_gate(svc: Service, opts: SourceOptions, fps: float) -> Callable[[int], bool]:
     """The wait before frame ``k``: real-time pacing or the fit credit window."""
-    if args.pace == "realtime" and args.video is not None:
+    if opts.pace == "realtime" and opts.video is not None:
         return RealTimePacer(fps, svc.wait).wait
-    if args.pace == "realtime":
+    if opts.pace == "realtime":
         return lambda k: not svc.stopping  # a camera or stream sets its own pace
-    window = CreditWindow(args.window, args.answer_timeout)
+    window = CreditWindow(opts.window, opts.answer_timeout)
 
-    def on_fit(sample: object) -> None:
-        msg = svc.decode(sample.payload.to_bytes(), "fit", source="fit")  # type: ignore[attr-defined]
-        if msg is not None:
-            window.answer(msg.header.frame_index)
+    def on_fit(sample: Any) -> None:
+        fit = svc.screen.check(sample.payload.to_bytes(), str(sample.key_expr), "fit")
+        if fit is not None:
+            window.answer(fit.header.frame_index)
 
     svc.subscribe(svc.key("fit"), on_fit)
     svc.stop_hooks.append(window.stop)
     return window.wait
 
 
-def publish_frames(svc: Service, video: VideoInput, args: argparse.Namespace) -> tuple[int, str]:
+def publish_frames(svc: Service, video: VideoInput, opts: SourceOptions) -> tuple[int, str]:
     """Publish every frame of ``video``; return ``(frames published, reason it ended)``."""
-    gate = make_gate(svc, args, video.fps)
+    gate = make_gate(svc, opts, video.fps)
     size = (video.width, video.height)
     count = 0
     for image in video.frames():
@@ -116,61 +97,62 @@ def publish_frames(svc: Service, video: VideoInput, args: argparse.Namespace) ->
         if not gate(count):
             return count, "stopped"
         started = time.perf_counter()
-        svc.publish(make_frame(svc, count, image, time.time_ns(), args.jpeg))
+        svc.publish(make_frame(svc, count, image, time.time_ns(), opts.jpeg))
         svc.stats.count_in()
         svc.stats.last_frame = count
         svc.stats.latency.add(1000 * (time.perf_counter() - started))
         count += 1
-        if args.max_frames and count >= args.max_frames:
+        if opts.max_frames and count >= opts.max_frames:
             break
     return count, "stopped" if svc.stopping else "end_of_file"
 
 
 def publish_eos(svc: Service, count: int, reason: str) -> None:
-    """Publish ``EndOfStream`` and give it time to leave."""
+    """Publish ``EndOfStream``; it goes out with blocking congestion control, so it arrives."""
     svc.publish(EndOfStream(svc.header(max(count - 1, 0)), total_frames=count, reason=reason),
                 count=False)
     svc.log.info("end of stream: %d frames, %s", count, reason)
-    time.sleep(EOS_LINGER)
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run the source with parsed arguments; the exit code."""
-    log = init_process(NAME, args.verbose)
-    if not 0 <= args.jpeg <= 100:
-        log.error("--jpeg quality must be 0 (raw) to 100, got %d", args.jpeg)
-        return 2
-    spec = input_spec(args)
-    with Service(NAME, BusOptions.from_args(args)) as svc:
+def serve(svc: Service, opts: SourceOptions) -> int:
+    """Open the input and publish it; the exit code."""
+    spec = InputSpec.of(opts)
+    try:
+        video = VideoInput(spec, opts.loop)
+    except SourceError as exc:
+        svc.log.error("%s", exc)
+        svc.set_state("failed", str(exc))
+        publish_eos(svc, 0, f"error: {exc}")
+        return 1
+    with video:
+        svc.ready(f"{spec.describe()}: {video.width} x {video.height} at {video.fps:g} fps")
+        missing = svc.wait_for_alive(opts.wait_for, opts.wait_timeout) if opts.wait_for else []
+        if missing:
+            svc.log.warning("going on without %s (not alive after %g s)", missing,
+                            opts.wait_timeout)
         try:
-            video = VideoInput(spec, args.loop)
+            count, reason = publish_frames(svc, video, opts)
         except SourceError as exc:
-            log.error("%s", exc)
+            svc.log.error("%s", exc)
             svc.set_state("failed", str(exc))
-            publish_eos(svc, 0, f"error: {exc}")
+            publish_eos(svc, svc.stats.frames_out, f"error: {exc}")
             return 1
-        with video:
-            svc.ready(f"{spec.describe()}: {video.width} x {video.height} at {video.fps:g} fps")
-            waiting = [s for s in args.wait_for.split(",") if s]
-            missing = svc.wait_for_alive(waiting, args.wait_timeout) if waiting else []
-            if missing:
-                log.warning("going on without %s (not alive after %g s)", missing,
-                            args.wait_timeout)
-            try:
-                count, reason = publish_frames(svc, video, args)
-            except SourceError as exc:
-                log.error("%s", exc)
-                svc.set_state("failed", str(exc))
-                publish_eos(svc, svc.stats.frames_out, f"error: {exc}")
-                return 1
-        svc.set_state("stopping", reason)
-        publish_eos(svc, count, reason)
+    svc.set_state("stopping", reason)
+    publish_eos(svc, count, reason)
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: ``python -m services.source.service --video FILE``."""
-    return run(build_parser().parse_args(argv))
+    args = parse_service_args(NAME, "Publish the frames of a video file, camera or stream URL.",
+                              SourceOptions, argv)
+    if not args.options.has_input:
+        print("aamtrack service source: error: give --video, --camera or --url", file=sys.stderr)
+        return 2
+    init_process(NAME, args.verbose)
+    bus = args.bus if args.bus.run_id else args.bus.replace(run_id=new_run_id())
+    with Service(NAME, bus) as svc:
+        return serve(svc, args.options)
 
 
 if __name__ == "__main__":

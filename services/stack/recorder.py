@@ -7,13 +7,21 @@ Any program that reads the message contract can read a recording::
 
     from services.stack.recorder import load_messages
     fits = [m for m in load_messages("run.rec") if m.KIND == "fit"]
+
+The writer flushes at least once a second, so a recording whose writer died
+(a killed launcher, a lost machine) keeps all but its last second; a reader
+returns every complete record before a damaged one and says where it stopped
+(:func:`read_recording`).
 """
 
 from __future__ import annotations
 
+import logging
 import struct
 import threading
+import time
 from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
 
@@ -25,6 +33,10 @@ RESULT_KINDS = ("boxes", "fit", "pose", "expression", "status", "eos")
 """Kinds recorded by default; frames and overlays only when asked."""
 IMAGE_KINDS = ("frame", "overlay")
 _LENGTH = struct.Struct("<I")
+FLUSH_PERIOD = 1.0
+"""Seconds at most between a write and its flush to the file."""
+
+log = logging.getLogger("aamtrack.recorder")
 
 
 class RecordingError(ValueError):
@@ -47,15 +59,29 @@ class RecordWriter:
         self._lock = threading.Lock()
         self._file: BinaryIO | None = open(self.path, "wb")  # noqa: SIM115 (closed in close())
         self._file.write(MAGIC)
+        self._file.flush()
+        self._flushed = time.monotonic()
 
     def write(self, payload: bytes) -> None:
-        """Append one encoded message."""
+        """Append one encoded message (flushed within :data:`FLUSH_PERIOD`)."""
         with self._lock:
             if self._file is None:
                 raise ValueError(f"recording {self.path} is closed")
-            self._file.write(_LENGTH.pack(len(payload)))
-            self._file.write(payload)
+            self._file.write(_LENGTH.pack(len(payload)) + payload)
             self.count += 1
+            if time.monotonic() - self._flushed >= FLUSH_PERIOD:
+                self._flush()
+
+    def flush(self) -> None:
+        """Write everything so far to the file."""
+        with self._lock:
+            if self._file is not None:
+                self._flush()
+
+    def _flush(self) -> None:
+        assert self._file is not None
+        self._file.flush()
+        self._flushed = time.monotonic()
 
     def close(self) -> None:
         """Flush and close the file. Idempotent."""
@@ -71,49 +97,79 @@ class RecordWriter:
         self.close()
 
 
-def read_payloads(path: str | Path) -> Iterator[bytes]:
-    """The payloads of a recording, in order.
+@dataclass
+class Recording:
+    """What a recording file holds.
+
+    Attributes
+    ----------
+    messages : list of Message
+    stopped : str
+        Empty when every record was read; else where and why reading stopped
+        (a record cut short by a writer that died, or damaged).
+    """
+
+    messages: list[Message]
+    stopped: str = ""
+
+
+def _records(f: BinaryIO, path: Path) -> Iterator[tuple[int, int, bytes]]:
+    """``(index, offset, payload)`` of each complete record after the magic; raises at the
+    first bad one."""
+    index, offset = 0, len(MAGIC)
+    while head := f.read(_LENGTH.size):
+        where = f"{path}: record {index} at byte {offset}"
+        if len(head) < _LENGTH.size:
+            raise RecordingError(f"{where}: truncated in its length")
+        (size,) = _LENGTH.unpack(head)
+        if size > payload_limit(None):
+            raise RecordingError(f"{where}: claims {size} bytes, over the largest message "
+                                 f"of {payload_limit(None)}")
+        payload = f.read(size)
+        if len(payload) < size:
+            raise RecordingError(f"{where}: truncated ({len(payload)} of {size} bytes)")
+        yield index, offset, payload
+        index, offset = index + 1, offset + _LENGTH.size + size
+
+
+def read_recording(path: str | Path, kinds: Iterable[str] | None = None) -> Recording:
+    """Every complete, valid message of a recording (optionally only some kinds).
+
+    Reading stops at the first record that is cut short, oversized or does
+    not decode; what came before it is returned and :attr:`Recording.stopped`
+    says where.
 
     Raises
     ------
     RecordingError
-        If the file does not start with the recording magic, a record is
-        longer than any message may be, or the file ends inside a record.
+        When the file is not a recording at all.
+    OSError
+        When it cannot be read.
     """
     path = Path(path)
+    wanted = None if kinds is None else set(kinds)
+    messages: list[Message] = []
     with open(path, "rb") as f:
         if f.read(len(MAGIC)) != MAGIC:
             raise RecordingError(f"{path}: not an aamtrack recording (bad magic)")
-        index = 0
-        while head := f.read(_LENGTH.size):
-            if len(head) < _LENGTH.size:
-                raise RecordingError(f"{path}: truncated in the length of record {index}")
-            (size,) = _LENGTH.unpack(head)
-            if size > payload_limit(None):
-                raise RecordingError(f"{path}: record {index} claims {size} bytes, over the "
-                                     f"largest message of {payload_limit(None)}")
-            payload = f.read(size)
-            if len(payload) < size:
-                raise RecordingError(f"{path}: truncated inside record {index}")
-            yield payload
-            index += 1
+        try:
+            for index, offset, payload in _records(f, path):
+                try:
+                    msg = decode(payload)
+                except ProtoError as exc:
+                    raise RecordingError(f"{path}: record {index} at byte {offset} does not "
+                                         f"decode: {exc.reason}") from None
+                if wanted is None or msg.KIND in wanted:
+                    messages.append(msg)
+        except RecordingError as exc:
+            return Recording(messages, str(exc))
+    return Recording(messages)
 
 
 def load_messages(path: str | Path, kinds: Iterable[str] | None = None) -> list[Message]:
-    """Decode every message of a recording (optionally only some kinds).
-
-    Raises
-    ------
-    RecordingError
-        For a damaged file or a record that does not decode (naming it).
-    """
-    wanted = None if kinds is None else set(kinds)
-    messages = []
-    for index, payload in enumerate(read_payloads(path)):
-        try:
-            msg = decode(payload)
-        except ProtoError as exc:
-            raise RecordingError(f"{path}: record {index} does not decode: {exc.reason}") from None
-        if wanted is None or msg.KIND in wanted:
-            messages.append(msg)
-    return messages
+    """The messages of :func:`read_recording`, warning when reading stopped early."""
+    recording = read_recording(path, kinds)
+    if recording.stopped:
+        log.warning("read %d messages, then stopped: %s", len(recording.messages),
+                    recording.stopped)
+    return recording.messages

@@ -10,7 +10,9 @@ a Zenoh session or a GL context hangs or publishes nothing. A child runs
 after a back-off that doubles from ``backoff`` up to ``max_backoff`` seconds,
 at most ``max_restarts`` times; the restarted process finds its restart count
 in ``AAMTRACK_RESTARTS`` and reports it in its status. A service that exits
-with code 0 has finished and stays down.
+with code 0 has finished and stays down. Every service dies with the
+launcher: its parent's pid is in ``AAMTRACK_PARENT_PID`` and it asks the
+kernel for SIGTERM when its parent dies (:mod:`services.bus.process`).
 """
 
 from __future__ import annotations
@@ -27,25 +29,15 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from services.bus.runtime import ENV_RESTARTS
+from services.bus.process import ENV_PARENT, ENV_RESTARTS, die_with_parent
 
 log = logging.getLogger("aamtrack.launcher")
 
-SERVICE_MODULES: dict[str, str] = {
-    "source": "services.source.service",
-    "detector": "services.detector.service",
-    "fitter": "services.fitter.service",
-    "pose": "services.pose.service",
-    "expression": "services.expression.service",
-    "ar": "services.ar.service",
-    "rerun": "services.rerun_logger.service",
-}
-"""Service name -> module with a ``main(argv) -> int``."""
-
 
 def service_entry(module: str, argv: Sequence[str], nice: int = 0) -> None:
-    """Body of a service process: lower its priority by ``nice``, run ``module.main(argv)``
-    and exit with its code."""
+    """Body of a service process: die with the launcher, lower its priority by ``nice``,
+    run ``module.main(argv)`` and exit with its code."""
+    die_with_parent()
     if nice:
         os.nice(nice)
     code = importlib.import_module(module).main(list(argv))
@@ -142,7 +134,7 @@ class Supervisor:
             self._start(self._managed[name])
 
     def _start(self, m: _Managed) -> None:
-        env = {**self._env, ENV_RESTARTS: str(m.restarts)}
+        env = {**self._env, ENV_RESTARTS: str(m.restarts), ENV_PARENT: str(os.getpid())}
         m.process = self._ctx.Process(
             target=service_entry, args=(m.spec.module, m.spec.argv, m.spec.nice),
             name=m.spec.name,

@@ -1,24 +1,20 @@
 """Fixtures of the deployment tests: certificates, routers, the small test model."""
 
-# ruff: noqa: E402  (the repository root must be on sys.path before proto is imported)
 from __future__ import annotations
-
-import sys
-from pathlib import Path
-
-REPO_ROOT = Path(__file__).resolve().parents[2]
-if str(REPO_ROOT) not in sys.path:
-    sys.path.insert(0, str(REPO_ROOT))
 
 import json
 import os
 import shutil
 import subprocess
+import sys
 import time
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
+
+from aamcore.config import REPO_ROOT
 
 DEPLOY = REPO_ROOT / "deploy"
 ZENOH_DIR = DEPLOY / "zenoh"

@@ -11,10 +11,16 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
-from conftest import ZENOH_DIR, Probe, RouterProcess, publish_until_received, wait_until
-from test_tls import tls_client
 
 from services.stack.launcher import free_port
+from tests.deploy.conftest import (
+    ZENOH_DIR,
+    Probe,
+    RouterProcess,
+    publish_until_received,
+    wait_until,
+)
+from tests.deploy.test_tls import tls_client
 
 KEY = "aamtrack/cam0/fit"
 

@@ -4,16 +4,19 @@ every service once with arguments its parser accepts, systemd units that start t
 from __future__ import annotations
 
 import configparser
-import importlib
 import json
-import tomllib
+import re
+from pathlib import Path
 
 import pytest
 import zenoh
-from conftest import DEPLOY, ZENOH_DIR
 
 from proto.zenoh_config import config_from_file
-from services.stack.supervisor import SERVICE_MODULES
+from services.bus.args import parse_service_args, service_argv
+from services.bus.options import OptionError
+from services.stack.registry import SERVICES
+from services.stack.stack_file import StackFile, read_stack_file
+from tests.deploy.conftest import DEPLOY, ZENOH_DIR
 
 MODES = {"peer.json5": "peer", "client.json5": "client", "router.json5": "router",
          "router-tls.json5": "router", "client-tls.json5": "client",
@@ -71,24 +74,41 @@ def test_config_from_file_overrides_mode_and_endpoints() -> None:
 
 
 @pytest.fixture(scope="module")
-def stack_file() -> dict:
-    return tomllib.loads((DEPLOY / "stack.toml").read_text())
+def stack_file() -> StackFile:
+    return read_stack_file(DEPLOY / "stack.toml")
 
 
-def test_stack_file_places_every_service_on_exactly_one_host(stack_file: dict) -> None:
-    placed = [s for host in stack_file["hosts"].values() for s in host["services"]]
-    assert sorted(placed) == sorted(SERVICE_MODULES)
-    assert stack_file["hosts"]["camera"]["services"] == ["source"]
-    assert stack_file["hosts"]["viewer"]["services"] == ["rerun"]
-    assert [n for n, h in stack_file["hosts"].items() if h.get("router")] == ["compute"]
+def test_stack_file_places_every_service_on_exactly_one_host(stack_file: StackFile) -> None:
+    placed = [s for host in stack_file.hosts.values() for s in host.services]
+    assert sorted(placed) == sorted(SERVICES)
+    assert stack_file.hosts["camera"].services == ("source",)
+    assert stack_file.hosts["viewer"].services == ("rerun",)
+    assert [n for n, h in stack_file.hosts.items() if h.router] == ["compute"]
 
 
-@pytest.mark.parametrize("name", sorted(SERVICE_MODULES))
-def test_stack_file_arguments_are_accepted_by_each_service(stack_file: dict, name: str) -> None:
-    parser = importlib.import_module(SERVICE_MODULES[name]).build_parser()
-    bus = stack_file["bus"]
-    parser.parse_args([*stack_file["services"][name]["args"], "--stream", bus["stream"],
-                       "--mode", bus["mode"], "--connect", bus["router"]])
+@pytest.mark.parametrize("name", list(SERVICES))
+def test_stack_file_options_are_accepted_by_each_service(stack_file: StackFile, name: str) -> None:
+    host = next(h.name for h in stack_file.hosts.values() if name in h.services)
+    argv = service_argv(stack_file.bus(host), stack_file.services[name])
+    info = SERVICES[name]
+    args = parse_service_args(name, info.summary, info.options, argv)
+    assert args.options == stack_file.services[name]
+    assert args.bus.connect == (stack_file.router,) and args.bus.stream == stack_file.stream
+
+
+def test_stack_file_errors_name_the_file_and_the_problem(tmp_path: Path) -> None:
+    bad = tmp_path / "stack.toml"
+    for text, message in [
+        ("[services.fitter]\nwarp = \"tpu\"\n", "--warp 'tpu'"),
+        ("[services.fitter]\nspeed = 3\n", "unknown option 'speed'"),
+        ("[services.blender]\n", "unknown services ['blender']"),
+        ("[hosts.a]\nservices = [\"fitter\", \"mixer\"]\n", "unknown services ['mixer']"),
+        ("[services.source\n", "not valid TOML"),
+    ]:
+        bad.write_text(text)
+        with pytest.raises(OptionError, match=re.escape(message)) as err:
+            read_stack_file(bad)
+        assert str(bad) in str(err.value)
 
 
 def _unit(name: str) -> configparser.ConfigParser:
@@ -101,7 +121,7 @@ def _unit(name: str) -> configparser.ConfigParser:
 def test_systemd_service_template_runs_one_named_service_connected_to_the_router() -> None:
     unit = _unit("aamtrack@.service")
     exec_start = unit["Service"]["ExecStart"]
-    assert " service %i " in exec_start and "--connect" in exec_start
+    assert " service %i --stack /etc/aamtrack/stack.toml --host ${AAMTRACK_HOST}" in exec_start
     assert unit["Service"]["Restart"] == "on-failure"
     assert "aamtrack-router.service" in unit["Unit"]["After"]
 

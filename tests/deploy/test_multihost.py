@@ -18,10 +18,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import MODEL_IMAGES, MODEL_LIMIT, REPO_ROOT, RouterProcess, child_env
 
-from services.stack.launcher import Stack, StackOptions, free_port
+from services.stack.launcher import Stack, free_port
+from services.stack.options import parse_run_args
 from services.stack.recorder import load_messages
+from tests.deploy.conftest import REPO_ROOT, RouterProcess, child_env
 
 RUN_TIMEOUT = 60.0
 LANDMARK_TOLERANCE_PX = 1.0
@@ -111,7 +112,7 @@ def multihost_fits(hosts: Hosts, video: Path, models: dict[str, list[str]],
                 env=child_env(), cwd=REPO_ROOT, stdout=logs, stderr=subprocess.STDOUT))
         recorder = subprocess.Popen(
             [*hosts.exec_prefix(hosts.compute), sys.executable, "-m", "services", "record",
-             "--out", str(rec), "--until-eos", "--timeout", str(RUN_TIMEOUT), *compute_bus],
+             "--out", str(rec), "--until-eos", "--duration", str(RUN_TIMEOUT), *compute_bus],
             env=child_env(), cwd=REPO_ROOT, stdout=logs, stderr=subprocess.STDOUT)
         procs.append(recorder)
         # The camera host has no listener: a client reaches everything through the router.
@@ -134,10 +135,11 @@ def multihost_fits(hosts: Hosts, video: Path, models: dict[str, list[str]],
 def single_host_fits(video: Path, models: dict[str, list[str]],
                      rec: Path) -> dict[int, object]:
     """The same services started by the launcher on loopback; its recorded fits by frame."""
-    opts = StackOptions(video=str(video), pace="fast", warp="cpu", ar=False, stream="sh",
-                        record=str(rec), endpoint=f"tcp/127.0.0.1:{free_port()}",
-                        model_limit=MODEL_LIMIT, model_images=MODEL_IMAGES, drain_max=10.0)
-    with Stack(opts, models) as stack:
+    opts = parse_run_args([
+        "--video", str(video), "--pace", "fast", "--warp", "cpu", "--no-ar", "--stream", "sh",
+        "--record", str(rec), "--endpoint", f"tcp/127.0.0.1:{free_port()}", "--drain-max", "10",
+        *models["fitter"], "--classifier", models["expression"][-1]])
+    with Stack(opts) as stack:
         assert stack.wait() == "done", stack.summary()
     return {m.header.frame_index: m for m in load_messages(rec, ["fit"])}
 

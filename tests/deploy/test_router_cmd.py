@@ -7,7 +7,9 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from conftest import (
+from services.cli.router_cmd import DEFAULT_LISTEN, router_config
+from services.stack.launcher import free_port
+from tests.deploy.conftest import (
     REPO_ROOT,
     ZENOH_DIR,
     Probe,
@@ -16,9 +18,6 @@ from conftest import (
     client_config,
     publish_until_received,
 )
-
-from services.cli.router_cmd import DEFAULT_LISTEN, router_config
-from services.stack.launcher import free_port
 
 
 def test_two_clients_exchange_messages_only_through_the_router(

@@ -14,10 +14,16 @@ from typing import Any
 
 import pytest
 import zenoh
-from conftest import ZENOH_DIR, Probe, RouterProcess, publish_until_received, wait_until
 
 from proto.zenoh_config import config_from_file
 from services.stack.launcher import free_port
+from tests.deploy.conftest import (
+    ZENOH_DIR,
+    Probe,
+    RouterProcess,
+    publish_until_received,
+    wait_until,
+)
 
 
 def tls_client(endpoint: str, identity: str | None, ca: str = "certs/ca.pem") -> Any:
@@ -128,13 +134,15 @@ def test_a_service_runs_over_mutual_tls_from_the_deploy_file(
     """``--zenoh-config deploy/zenoh/client-tls.json5``: a real service's status gets through."""
     from proto.codec import decode
     from proto.keys import status_key
-    from services.bus.runtime import BusOptions, Service
+    from services.bus.connection import BusOptions
+    from services.bus.options import options_argv
+    from services.bus.session import Service
 
     endpoint = tls_router(True)
     config = pki / "service-client.json5"
     config.write_text((ZENOH_DIR / "client-tls.json5").read_text())
-    bus = BusOptions(mode="client", connect=(endpoint,), config_file=str(config))
-    assert "--zenoh-config" in bus.argv()
+    bus = BusOptions(mode="client", connect=(endpoint,), zenoh_config=str(config))
+    assert "--zenoh-config" in options_argv(bus)
     probe = Probe(tls_client(endpoint, "stack"), status_key("cam0", "tlsprobe"))
     try:
         with Service("tlsprobe", bus, status_period=0.2, handle_signals=False) as svc:

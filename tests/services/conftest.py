@@ -1,29 +1,20 @@
 """Fixtures of the service tests: real videos, a small cached model, stacks on loopback."""
 
-# ruff: noqa: E402  (the repository root must be on sys.path before proto is imported)
 from __future__ import annotations
-
-import sys
-from pathlib import Path
-
-REPO_ROOT = Path(__file__).resolve().parents[2]
-# Under pytest, tests/ is on sys.path and tests/proto (no __init__.py) would make
-# ``proto`` a namespace package; spawned service processes inherit sys.path.
-if str(REPO_ROOT) not in sys.path:
-    sys.path.insert(0, str(REPO_ROOT))
 
 import os
 import subprocess
+import sys
 from collections.abc import Callable, Iterator
+from pathlib import Path
 
 import pytest
 
-from services.bus.runtime import BusOptions, Service
-from services.stack.launcher import StackOptions, free_port
-
-MODEL_LIMIT = 120
-"""Training images of the small test AAM (cached after the first run)."""
-MODEL_IMAGES = 10
+from aamcore.config import REPO_ROOT
+from services.bus.connection import BusOptions
+from services.bus.session import Service
+from services.stack.launcher import free_port
+from services.stack.options import StackOptions, parse_run_args
 
 
 @pytest.fixture(scope="session")
@@ -41,35 +32,21 @@ def no_face(videos: Path) -> Path:
     return videos / "no_face.mp4"
 
 
-@pytest.fixture(scope="session")
-def model_path() -> Path:
-    """A small LFPW AAM ready for fitting, from the user cache (trained on first use)."""
-    from aamcore.fitting.training.prepare import default_model_path
-
-    return default_model_path(max_images=MODEL_IMAGES, limit=MODEL_LIMIT)
-
-
-@pytest.fixture(scope="session")
-def classifier_path(model_path: Path) -> Path:
-    """The expression classifier for :func:`model_path` (trained on JAFFE on first use)."""
-    from aamcore.expression.training import classifier_path as cached
-
-    return cached(model_path)
-
-
-@pytest.fixture(scope="session")
-def models(model_path: Path, classifier_path: Path) -> dict[str, list[str]]:
-    """Model arguments per service, as :func:`services.stack.launcher.prepare_models` gives them."""
-    return {"fitter": ["--model", str(model_path)],
-            "expression": ["--model", str(model_path), "--classifier", str(classifier_path)]}
-
-
-def _stack_options(video: Path, **kw: object) -> StackOptions:
-    kw.setdefault("pace", "fast")
-    kw.setdefault("drain_max", 10.0)
-    kw.setdefault("endpoint", f"tcp/127.0.0.1:{free_port()}")
-    return StackOptions(video=str(video), model_limit=MODEL_LIMIT, model_images=MODEL_IMAGES,
-                        **kw)  # type: ignore[arg-type]
+def run_argv(video: Path, **kw: object) -> list[str]:
+    """``aamtrack run`` arguments of ``video`` and options given by field name."""
+    argv = ["--video", str(video)]
+    for name, value in kw.items():
+        flag = "--" + name.replace("_", "-")
+        if name == "extra":
+            argv += [f"--set={service}:{arg}" for service, args in value.items()  # type: ignore
+                     for arg in args]
+        elif value is True:
+            argv.append(flag)
+        elif value is False:
+            argv.append("--no-" + flag[2:])
+        elif value is not None:
+            argv += [flag, str(value)]
+    return argv
 
 
 def _run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
@@ -79,9 +56,19 @@ def _run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[st
 
 
 @pytest.fixture(scope="session")
-def stack_options() -> Callable[..., StackOptions]:
-    """``stack_options(video, **options)``: a stack on ``video``, fast pacing, the small model."""
-    return _stack_options
+def stack_options(model_path: Path, classifier_path: Path) -> Callable[..., StackOptions]:
+    """``stack_options(video, **options)``: a stack on ``video``, fast pacing, the small model
+    and its classifier, a free endpoint; options by field name, as ``aamtrack run`` takes them."""
+
+    def make(video: Path, **kw: object) -> StackOptions:
+        kw.setdefault("pace", "fast")
+        kw.setdefault("drain_max", 10.0)
+        kw.setdefault("endpoint", f"tcp/127.0.0.1:{free_port()}")
+        kw.setdefault("model", str(model_path))
+        kw.setdefault("classifier", str(classifier_path))
+        return parse_run_args(run_argv(video, **kw))
+
+    return make
 
 
 @pytest.fixture(scope="session")

@@ -6,28 +6,43 @@ Every algorithm follows :class:`~aamcore.fitting.algorithm.base.Algorithm`:
 ``track(image, previous)`` from the previous frame's fit, on a prepared image
 (see :meth:`aamcore.model.aam.AAM.prepare_image`). A new algorithm is one
 module here and one line in :data:`ALGORITHMS`.
+
+The registry names classes by path, so that reading the names (command-line
+parsers) imports no algorithm code.
 """
 
 from __future__ import annotations
 
+import importlib
 from typing import TYPE_CHECKING
 
-from aamcore.fitting.algorithm.base import Algorithm, AlgorithmSettings
-from aamcore.fitting.algorithm.fixed_jacobian import FixedJacobian
-from aamcore.fitting.algorithm.multi_resolution import MultiResolution
-from aamcore.fitting.algorithm.project_out_ic import ProjectOutInverseCompositional
-from aamcore.fitting.algorithm.supervised_descent import SupervisedDescent
-
 if TYPE_CHECKING:
+    from aamcore.fitting.algorithm.base import Algorithm, AlgorithmSettings
     from aamcore.fitting.model import FittingModel
 
-ALGORITHMS: dict[str, type[Algorithm]] = {
-    "supervised-descent": SupervisedDescent,
-    "fixed-jacobian": FixedJacobian,
-    "multi-resolution": MultiResolution,
-    "project-out-ic": ProjectOutInverseCompositional,
+_PACKAGE = "aamcore.fitting.algorithm"
+ALGORITHMS: dict[str, str] = {
+    "supervised-descent": f"{_PACKAGE}.supervised_descent:SupervisedDescent",
+    "fixed-jacobian": f"{_PACKAGE}.fixed_jacobian:FixedJacobian",
+    "multi-resolution": f"{_PACKAGE}.multi_resolution:MultiResolution",
+    "project-out-ic": f"{_PACKAGE}.project_out_ic:ProjectOutInverseCompositional",
 }
-"""Algorithm name -> class."""
+"""Algorithm name -> ``module:Class``."""
+
+
+def algorithm_class(name: str) -> type[Algorithm]:
+    """The class of the algorithm called ``name``.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name.
+    """
+    path = ALGORITHMS.get(name)
+    if path is None:
+        raise ValueError(f"unknown fitting algorithm {name!r}: choose one of {list(ALGORITHMS)}")
+    module, cls = path.split(":")
+    return getattr(importlib.import_module(module), cls)
 
 
 def make_algorithm(name: str, model: FittingModel, settings: AlgorithmSettings) -> Algorithm:
@@ -38,19 +53,4 @@ def make_algorithm(name: str, model: FittingModel, settings: AlgorithmSettings) 
     ValueError
         For an unknown name, or a model that did not learn what the algorithm needs.
     """
-    cls = ALGORITHMS.get(name)
-    if cls is None:
-        raise ValueError(f"unknown fitting algorithm {name!r}: choose one of {list(ALGORITHMS)}")
-    return cls.from_model(model, settings)
-
-
-__all__ = [
-    "ALGORITHMS",
-    "Algorithm",
-    "AlgorithmSettings",
-    "FixedJacobian",
-    "MultiResolution",
-    "ProjectOutInverseCompositional",
-    "SupervisedDescent",
-    "make_algorithm",
-]
+    return algorithm_class(name).from_model(model, settings)

@@ -1,0 +1,79 @@
+"""Where a service connects: the stream, the run, and the Zenoh session settings."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from proto import ProtoError
+from proto.header import check_run_id
+from proto.keys import check_name
+from proto.zenoh_config import MODES, config_from_file, zenoh_config
+from services.bus.options import OptionError, Options, option
+
+DEFAULT_STREAM = "cam0"
+
+
+def _stream_problem(value: str) -> str:
+    try:
+        check_name(value)
+    except ProtoError as exc:
+        return exc.reason
+    return ""
+
+
+def _run_problem(value: str) -> str:
+    try:
+        check_run_id(value)
+    except ProtoError as exc:
+        return exc.reason
+    return ""
+
+
+@dataclass(frozen=True)
+class BusOptions(Options):
+    """The bus options every service and bus tool takes.
+
+    Attributes
+    ----------
+    stream : str
+        Stream id, a key chunk.
+    mode : {"peer", "client", "router"}
+    listen, connect : tuple of str
+        Zenoh endpoints such as ``"tcp/127.0.0.1:7447"``.
+    zenoh_config : str
+        A Zenoh JSON5 configuration (e.g. ``deploy/zenoh/client-tls.json5``
+        for TLS); ``mode`` and any endpoints given here override its own.
+    run_id : str
+        The run this service belongs to: messages of other runs are ignored
+        (and counted). Empty: follow whatever run the stream carries.
+    """
+
+    stream: str = option(DEFAULT_STREAM, "stream id", env="AAMTRACK_STREAM",
+                         check=_stream_problem)
+    mode: str = option("peer", "zenoh mode", choices=MODES, env="AAMTRACK_ZENOH_MODE")
+    listen: tuple[str, ...] = option((), "zenoh listen endpoint, repeatable",
+                                     metavar="ENDPOINT", env="AAMTRACK_ZENOH_LISTEN")
+    connect: tuple[str, ...] = option((), "zenoh endpoint to connect to, repeatable",
+                                      metavar="ENDPOINT", env="AAMTRACK_ZENOH_CONNECT")
+    zenoh_config: str = option("", "zenoh JSON5 configuration, e.g. TLS; --mode and "
+                               "endpoints given override it", metavar="FILE",
+                               env="AAMTRACK_ZENOH_CONFIG")
+    run_id: str = option("", "accept only messages of this run (set by the launcher)",
+                         metavar="RUN", env="AAMTRACK_RUN_ID", check=_run_problem)
+
+    def config(self) -> Any:
+        """The ``zenoh.Config``: from ``zenoh_config`` when given, else multicast
+        scouting off and the explicit endpoints.
+
+        Raises
+        ------
+        OptionError
+            When the configuration file cannot be read.
+        """
+        if self.zenoh_config:
+            try:
+                return config_from_file(self.zenoh_config, self.mode, self.listen, self.connect)
+            except (OSError, ValueError) as exc:
+                raise OptionError(f"--zenoh-config {self.zenoh_config}: {exc}") from None
+        return zenoh_config(self.mode, self.listen, self.connect)

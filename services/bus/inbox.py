@@ -1,0 +1,227 @@
+"""Where received messages wait: screened on arrival, so that nothing invalid takes a slot.
+
+Every sample is screened in the Zenoh callback, before it is kept
+(:meth:`Screen.check`): its size and encoding (:func:`proto.decode`), its
+kind, its stream, its producer (only the service that owns a key may publish
+on it) and its run. An invalid sample is counted as rejected, a valid one
+from outside the run as ignored; neither can push a real frame out.
+
+Three holders keep what passes (only an :class:`Inbox`, a service's main
+input, counts what it gives in ``frames_in``):
+
+- :class:`Inbox`: the latest ``capacity`` messages, taken in order (a full
+  inbox drops its oldest, counted as dropped);
+- :class:`Latest`: only the last message (e.g. the frame a detector searches);
+- :class:`Recent`: the last few messages by frame index (e.g. the frame a
+  pose belongs to).
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from proto import Message, ProtoError, decode
+from proto.keys import owner_of
+from services.bus.stats import FrameNumbering, ServiceStats
+
+
+@dataclass(frozen=True)
+class Received:
+    """A message that passed the screen.
+
+    Attributes
+    ----------
+    message : Message
+    payload : bytes
+        Its encoded bytes (e.g. to forward a frame without encoding it again).
+    key : str
+        The key it arrived on.
+    received_ns : int
+        ``time.time_ns()`` when Zenoh delivered it.
+    """
+
+    message: Message
+    payload: bytes
+    key: str
+    received_ns: int
+
+
+class Screen:
+    """Decides for each sample: keep, reject (invalid) or ignore (valid, not of this run).
+
+    Parameters
+    ----------
+    stream : str
+        The service's stream id.
+    run_id : str
+        Accept only this run; empty: any run.
+    stats : ServiceStats
+    reject : callable
+        ``reject(source, reason)``: counts and logs a rejected sample.
+    """
+
+    def __init__(
+        self, stream: str, run_id: str, stats: ServiceStats, reject: Callable[[str, str], None]
+    ) -> None:
+        self.stream = stream
+        self.run_id = run_id
+        self.stats = stats
+        self.reject = reject
+
+    def check(self, payload: bytes, key: str, kind: str | None) -> Message | None:
+        """The message of a valid sample of this run, else None (counted)."""
+        try:
+            message = decode(payload, kind)
+        except ProtoError as exc:
+            self.reject(key, exc.reason)
+            return None
+        header = message.header
+        if header.stream_id != self.stream:
+            self.reject(key, f"message of stream {header.stream_id!r} on this stream's key")
+            return None
+        owner = owner_of(key)
+        if owner is not None and header.producer != owner:
+            self.stats.ignored += 1
+            return None
+        if self.run_id and header.run_id != self.run_id:
+            self.stats.ignored += 1
+            return None
+        return message
+
+
+class _Holder:
+    """Subscriber side shared by the holders: screening and frame numbering."""
+
+    def __init__(self, screen: Screen, key: str, kind: str | None) -> None:
+        self.key = key
+        self.kind = kind
+        self.arrived: threading.Event | None = None
+        """Set on every arrival, when given (a loop over several holders waits on it)."""
+        self._screen = screen
+        self._numbering = FrameNumbering(screen.stats) if kind == "frame" else None
+        self._cond = threading.Condition()
+        self._woken = False
+
+    def _screened(self, sample: Any) -> Received | None:
+        key = str(sample.key_expr)
+        payload = sample.payload.to_bytes()
+        message = self._screen.check(payload, key, self.kind)
+        if message is None:
+            return None
+        if self._numbering is not None:
+            self._numbering.arrived(message.header)
+        return Received(message, payload, key, time.time_ns())
+
+    def push(self, sample: Any) -> None:
+        """Zenoh callback."""
+        got = self._screened(sample)
+        if got is not None:
+            with self._cond:
+                self._keep(got)
+                self._cond.notify_all()
+            if self.arrived is not None:
+                self.arrived.set()
+
+    def _keep(self, got: Received) -> None:
+        raise NotImplementedError
+
+    def wake(self) -> None:
+        """Make a waiting :meth:`Inbox.get` return None now (used when stopping)."""
+        with self._cond:
+            self._woken = True
+            self._cond.notify_all()
+
+
+class Inbox(_Holder):
+    """The latest ``capacity`` screened messages of one key expression, oldest taken first.
+
+    It has the semantics of ``zenoh.handlers.RingChannel`` (a full inbox
+    overwrites its oldest message, counted as dropped), with a :meth:`get`
+    that has a timeout and can be woken, which a blocked ``RingChannel.recv``
+    cannot.
+    """
+
+    def __init__(self, screen: Screen, key: str, kind: str | None, capacity: int) -> None:
+        if capacity < 1:
+            raise ValueError(f"inbox capacity must be at least 1, got {capacity}")
+        super().__init__(screen, key, kind)
+        self.dropped = 0
+        self._items: collections.deque[Received] = collections.deque(maxlen=capacity)
+
+    def _keep(self, got: Received) -> None:
+        if len(self._items) == self._items.maxlen:
+            self.dropped += 1
+            self._screen.stats.dropped += 1
+        self._items.append(got)
+
+    def pending(self) -> int:
+        """Messages waiting to be taken."""
+        with self._cond:
+            return len(self._items)
+
+    def get(self, timeout: float | None = None) -> Received | None:
+        """Take the oldest message, counted in ``frames_in``; None on timeout or when woken."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        with self._cond:
+            while not self._items and not self._woken:
+                left = None if deadline is None else deadline - time.monotonic()
+                if left is not None and left <= 0:
+                    return None
+                self._cond.wait(left)
+            if self._woken:
+                self._woken = False
+                return None
+            got = self._items.popleft()
+        self._screen.stats.count_in(got.message.header)
+        return got
+
+
+class Latest(_Holder):
+    """The last screened message of one key; older ones are replaced, counted as dropped."""
+
+    def __init__(self, screen: Screen, key: str, kind: str | None) -> None:
+        super().__init__(screen, key, kind)
+        self._got: Received | None = None
+
+    def _keep(self, got: Received) -> None:
+        if self._got is not None:
+            self._screen.stats.dropped += 1
+        self._got = got
+
+    def take(self) -> Received | None:
+        """The last message, or None; it is not given twice."""
+        with self._cond:
+            got, self._got = self._got, None
+        return got
+
+    def peek(self) -> Message | None:
+        """The last message without taking it."""
+        with self._cond:
+            return None if self._got is None else self._got.message
+
+
+class Recent(_Holder):
+    """The last ``size`` screened messages by ``(run id, frame index)``."""
+
+    def __init__(self, screen: Screen, key: str, kind: str | None, size: int) -> None:
+        super().__init__(screen, key, kind)
+        self.size = size
+        self._items: collections.OrderedDict[tuple[str, int], Received] = (
+            collections.OrderedDict())
+
+    def _keep(self, got: Received) -> None:
+        h = got.message.header
+        self._items[(h.run_id, h.frame_index)] = got
+        while len(self._items) > self.size:
+            self._items.popitem(last=False)
+            self._screen.stats.dropped += 1
+
+    def take(self, run_id: str, frame_index: int) -> Received | None:
+        """The message of that frame, or None if never or no longer kept."""
+        with self._cond:
+            return self._items.pop((run_id, frame_index), None)

@@ -1,0 +1,252 @@
+"""Options as dataclasses: one declaration gives the parser, the checked values and the argv.
+
+A service declares its options once, as fields of an :class:`Options`
+dataclass made with :func:`option` (default, help, choices, range check,
+environment variable). From that one declaration
+
+- :func:`add_options` adds them to an ``argparse`` parser,
+- :func:`options_from` builds the checked dataclass from parsed arguments
+  (the environment fills what the command line leaves out), and
+- :func:`options_argv` turns a dataclass back into the command line that
+  gives it, which is how the launcher starts a service with its options.
+
+A value out of range raises :class:`OptionError` naming the option, before
+any process starts.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import os
+import types
+import typing
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, Self
+
+Check = Callable[[Any], str]
+"""Returns what is wrong with a value, or ``""``."""
+
+
+class OptionError(ValueError):
+    """An option's value is not acceptable; the message names the option."""
+
+
+@dataclass(frozen=True)
+class _Meta:
+    help: str
+    choices: tuple[Any, ...] | None
+    metavar: str | None
+    env: str | None
+    check: Check | None
+    flag: str | None
+
+
+def option(
+    default: Any,
+    help: str,
+    *,
+    choices: Sequence[Any] | None = None,
+    metavar: str | None = None,
+    env: str | None = None,
+    check: Check | None = None,
+    flag: str | None = None,
+) -> Any:
+    """A dataclass field that is also a command-line option ``--name-with-dashes``.
+
+    Parameters
+    ----------
+    default : object
+        Immutable default (tuples for lists).
+    help : str
+    choices : sequence, optional
+    metavar : str, optional
+    env : str, optional
+        Environment variable read when the command line does not give the option.
+    check : callable, optional
+        ``check(value) -> problem`` (``""`` when fine).
+    flag : str, optional
+        The flag, when not ``--`` and the field name with dashes.
+    """
+    meta = _Meta(help, tuple(choices) if choices is not None else None, metavar, env, check, flag)
+    return dataclasses.field(default=default, metadata={"option": meta})
+
+
+def in_range(low: float, high: float = math.inf) -> Check:
+    """A check that a number lies in ``[low, high]``."""
+
+    def check(value: Any) -> str:
+        if value is None:
+            return ""
+        if not (isinstance(value, int | float) and math.isfinite(value) and low <= value <= high):
+            upper = "" if high == math.inf else f" to {high:g}"
+            return f"must be a number from {low:g}{upper}"
+        return ""
+
+    return check
+
+
+@dataclass(frozen=True)
+class Options:
+    """Base of every options dataclass: checks each field on construction."""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            meta: _Meta | None = f.metadata.get("option")
+            if meta is None:
+                continue
+            value = getattr(self, f.name)
+            if meta.choices is not None and value is not None and value not in meta.choices:
+                raise OptionError(f"{flag_of(f)} {value!r}: choose one of "
+                                  f"{', '.join(map(str, meta.choices))}")
+            problem = meta.check(value) if meta.check else ""
+            if problem:
+                raise OptionError(f"{flag_of(f)} {value!r}: {problem}")
+
+    def replace(self, **changes: Any) -> Self:
+        """A copy with ``changes``, checked again."""
+        return dataclasses.replace(self, **changes)
+
+
+def flag_of(f: dataclasses.Field) -> str:
+    """The command-line flag of an option field."""
+    meta: _Meta = f.metadata["option"]
+    return meta.flag or "--" + f.name.replace("_", "-")
+
+
+def option_fields(
+    cls: type[Options], only: Sequence[str] | None = None
+) -> list[tuple[dataclasses.Field, type, _Meta]]:
+    """``(field, value type, metadata)`` of each option of ``cls`` (those named in ``only``)."""
+    hints = typing.get_type_hints(cls)
+    out = []
+    for f in dataclasses.fields(cls):
+        if "option" in f.metadata and (only is None or f.name in only):
+            out.append((f, _base_type(hints[f.name]), f.metadata["option"]))
+    return out
+
+
+def _base_type(hint: Any) -> type:
+    """``int`` for ``int | None``, ``tuple`` for ``tuple[str, ...]``, else the hint."""
+    origin = typing.get_origin(hint)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(hint) if a is not type(None)]
+        return _base_type(args[0])
+    if origin is tuple:
+        return tuple
+    return hint
+
+
+def add_options(
+    parser: argparse.ArgumentParser | Any, cls: type[Options], only: Sequence[str] | None = None
+) -> None:
+    """Add the options of ``cls`` (those named in ``only``) to ``parser`` or an argument group."""
+    for f, kind, meta in option_fields(cls, only):
+        text = meta.help
+        if f.default not in (None, (), False, ""):
+            text += f" (default {f.default})"
+        if meta.env:
+            text += f" [env {meta.env}]"
+        kwargs: dict[str, Any] = {"dest": f.name, "default": None, "help": text}
+        if kind is bool:
+            kwargs["action"] = argparse.BooleanOptionalAction
+        elif kind is tuple:
+            kwargs.update(action="extend", type=_comma_list, metavar=meta.metavar or "VALUE")
+        else:
+            kwargs.update(type=kind, metavar=meta.metavar, choices=meta.choices)
+        parser.add_argument(flag_of(f), **kwargs)
+
+
+def _comma_list(text: str) -> list[str]:
+    """A repeatable option's value: one item, or several separated by commas."""
+    return [item.strip() for item in text.split(",") if item.strip()]
+
+
+def _from_env(name: str, kind: type) -> Any:
+    text = os.environ.get(name, "")
+    if not text:
+        return None
+    if kind is tuple:
+        return tuple(_comma_list(text))
+    if kind is bool:
+        return text.lower() in ("1", "true", "yes", "on")
+    try:
+        return kind(text)
+    except ValueError as exc:
+        raise OptionError(f"environment variable {name}={text!r}: {exc}") from None
+
+
+def options_from(
+    cls: type[Options],
+    args: argparse.Namespace | None = None,
+    only: Sequence[str] | None = None,
+    base: Options | None = None,
+    **given: Any,
+) -> Any:
+    """Build ``cls`` from parsed arguments, then the environment, then ``base`` or the defaults.
+
+    Only the options named in ``only`` are read from ``args``; keyword
+    arguments override everything.
+
+    Raises
+    ------
+    OptionError
+    """
+    values: dict[str, Any] = dataclasses.asdict(base) if base is not None else {}
+    for f, kind, meta in option_fields(cls, only):
+        value = getattr(args, f.name, None) if args is not None else None
+        if value is None and meta.env:
+            value = _from_env(meta.env, kind)
+        if value is not None:
+            values[f.name] = tuple(value) if kind is tuple else value
+    values.update(given)
+    return cls(**values)
+
+
+def options_argv(opts: Options) -> list[str]:
+    """The command-line arguments giving ``opts`` back (only values other than the defaults)."""
+    argv: list[str] = []
+    for f, kind, _ in option_fields(type(opts)):
+        value = getattr(opts, f.name)
+        if value == f.default or value is None:
+            continue
+        flag = flag_of(f)
+        if kind is bool:
+            argv.append(flag if value else "--no-" + flag[2:])
+        elif kind is tuple:
+            for item in value:
+                argv += [flag, str(item)]
+        else:
+            argv += [flag, str(value)]
+    return argv
+
+
+def options_of_mapping(cls: type[Options], data: dict[str, Any], where: str) -> Any:
+    """Build ``cls`` from a mapping of field names (a stack file's table).
+
+    Raises
+    ------
+    OptionError
+        Naming ``where`` for an unknown key or a value of the wrong type.
+    """
+    fields = {f.name: kind for f, kind, _ in option_fields(cls)}
+    values = {}
+    for key, value in data.items():
+        name = key.replace("-", "_")
+        if name not in fields:
+            raise OptionError(f"{where}: unknown option {key!r}; options are "
+                              f"{', '.join(sorted(fields))}")
+        kind = fields[name]
+        if kind is tuple:
+            value = tuple(value) if isinstance(value, list) else (value,)
+        elif kind is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        elif not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+            raise OptionError(f"{where}: {key} = {value!r} is not a {kind.__name__}")
+        values[name] = value
+    try:
+        return cls(**values)
+    except OptionError as exc:
+        raise OptionError(f"{where}: {exc}") from None

@@ -1,0 +1,437 @@
+"""A service's Zenoh session: publishing, receiving, its loop, presence and status.
+
+A minimal service::
+
+    def main(argv=None) -> int:
+        opts = parse(PoseOptions, argv)
+        with Service("pose", opts.bus) as svc:
+            for got in svc.messages("fit", capacity=8):
+                svc.publish(make_pose(svc, got.message))
+        return 0
+
+:meth:`Service.messages` subscribes, screens every sample on arrival
+(:mod:`services.bus.inbox`), declares the service ready, and yields each
+valid message of the run, timing the work done on it; stop signals, the death
+of the launcher and :meth:`Service.request_stop` end the loop.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+import threading
+import time
+from collections.abc import Callable, Iterable, Iterator
+from typing import Any
+
+from proto import Header, Message, ProtoError, Status, decode, encode
+from proto.keys import TOPICS, alive_key, alive_wildcard, check_name, topic_key
+from proto.messages import STATES
+from services.bus.connection import BusOptions
+from services.bus.inbox import Inbox, Latest, Received, Recent, Screen
+from services.bus.options import OptionError
+from services.bus.process import ENV_RESTARTS, StopWatch
+from services.bus.qos import MUST_ARRIVE, TOPIC_QOS, QoS
+from services.bus.stats import ServiceStats
+
+STATUS_PERIOD = 1.0
+"""Seconds between two status messages of a service."""
+MAX_LOGGED_REASONS = 64
+"""Distinct rejection reasons logged per service; later ones are only counted."""
+POLL_S = 0.5
+"""Longest wait of a message loop before it looks whether it must stop."""
+
+_log = logging.getLogger("aamtrack.bus")
+
+
+class Service:
+    """A service's Zenoh session, liveliness token, status publisher and counters.
+
+    Parameters
+    ----------
+    name : str
+        Service name, a key chunk: ``fitter``, ``pose``, ...
+    bus : BusOptions
+    status_period : float
+        Seconds between status messages.
+    handle_signals : bool
+        Turn SIGTERM, SIGINT and SIGHUP into a stop (main thread only).
+    announce : bool
+        Publish a status; False for tools beside the stack (``echo``,
+        ``record``), which must not show up among its services.
+
+    Notes
+    -----
+    Use it as a context manager: leaving it publishes a last status (that
+    must arrive), undeclares every subscriber, queryable, publisher and the
+    token, and closes the session (a Zenoh callback left declared keeps a
+    process alive at exit).
+    """
+
+    def __init__(self, name: str, bus: BusOptions, status_period: float = STATUS_PERIOD,
+                 handle_signals: bool = True, announce: bool = True) -> None:
+        self.name = check_name(name, "service")
+        self.bus = bus
+        self.stream = bus.stream
+        self.run_id = bus.run_id
+        self.stats = ServiceStats()
+        self.log = logging.getLogger(f"aamtrack.{name}")
+        self.restarts = int(os.environ.get(ENV_RESTARTS, "0") or 0)
+        self.session: Any = None
+        self.screen = Screen(self.stream, self.run_id, self.stats, self.reject)
+        self.stop_hooks: list[Callable[[], None]] = []
+        """Called (in the stopping thread) when the service is asked to stop."""
+        self._status_period = status_period
+        self._announce = announce
+        self._watch = StopWatch(self.request_stop, handle_signals)
+        self._stop = threading.Event()
+        self._state, self._message = "starting", ""
+        self._declared: list[Any] = []
+        self._publishers: dict[str, Any] = {}
+        self._holders: list[Any] = []
+        self._reasons: set[str] = set()
+        self._token: Any = None
+        self._alive: set[str] = set()
+        self._watching = False
+        self._status_thread: threading.Thread | None = None
+        self._lock = threading.Lock()
+
+    # -- life cycle -------------------------------------------------------------------------
+
+    def __enter__(self) -> Service:
+        self.open()
+        return self
+
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
+        if exc is not None and not isinstance(exc, KeyboardInterrupt):
+            self.set_state("failed", f"{type(exc).__name__}: {exc}")
+        self.close()
+
+    def open(self) -> None:
+        """Open the session and start publishing status (the token comes with :meth:`ready`).
+
+        Raises
+        ------
+        OptionError
+            When the session cannot be opened (an endpoint in use, a bad configuration).
+        """
+        import zenoh
+
+        try:
+            self.session = zenoh.open(self.bus.config())
+        except zenoh.ZError as exc:
+            raise OptionError(f"cannot open the Zenoh session ({self.bus.mode}, listen "
+                              f"{list(self.bus.listen)}, connect {list(self.bus.connect)}): "
+                              f"{exc}") from None
+        self._watch.start()
+        if self._announce:
+            self._status_thread = threading.Thread(
+                target=self._status_loop, name=f"{self.name}-status", daemon=True)
+            self._status_thread.start()
+
+    def close(self) -> None:
+        """Publish a last status, undeclare everything, close the session. Idempotent."""
+        if self.session is None:
+            return
+        self._stop.set()
+        self._watch.close()
+        for holder in self._holders:
+            holder.wake()
+        if self._status_thread is not None:
+            self._status_thread.join(timeout=2 * self._status_period + 1)
+        if self._state != "failed":
+            self._state = "stopped"
+        session, self.session = self.session, None
+        try:
+            if self._announce:
+                status = self.status()
+                session.put(status.key(), encode(status), **MUST_ARRIVE.publisher_kwargs())
+        except Exception as exc:  # the session may already be broken; closing matters more
+            self.log.debug("last status not published: %s", exc)
+        finally:
+            for item in [*self._declared, *self._publishers.values(), self._token]:
+                _undeclare(item)
+            self._declared.clear()
+            self._publishers.clear()
+            session.close()
+
+    def ready(self, message: str = "") -> None:
+        """Declare the liveliness token and enter state ``running`` (idempotent).
+
+        Call it once the service's subscribers and queryables are declared:
+        a peer that waits for the token may publish as soon as it appears.
+        """
+        with self._lock:
+            if self._token is None and self.session is not None:
+                self._token = self.session.liveliness().declare_token(
+                    alive_key(self.stream, self.name))
+        if self._state == "starting":
+            self.set_state("running", message or None)
+
+    @property
+    def stopping(self) -> bool:
+        """Whether the service was asked to stop (signal, launcher gone or :meth:`request_stop`)."""
+        return self._stop.is_set()
+
+    def request_stop(self, reason: str = "") -> None:
+        """Ask the service's loops to finish; wakes every holder."""
+        if reason:
+            self.log.info("stopping: %s", reason)
+        self._stop.set()
+        for holder in self._holders:
+            holder.wake()
+        for hook in self.stop_hooks:
+            hook()
+
+    def wait(self, seconds: float) -> bool:
+        """Sleep up to ``seconds``; return True early if stopping."""
+        return self._stop.wait(seconds)
+
+    # -- publishing ---------------------------------------------------------------------------
+
+    def key(self, kind: str) -> str:
+        """``aamtrack/<stream>/<kind>`` for a message kind of :data:`proto.keys.TOPICS`."""
+        return topic_key(self.stream, kind)
+
+    def header(self, frame_index: int, capture_time_ns: int | None = None,
+               run_id: str | None = None) -> Header:
+        """A header for a message this service publishes now (of its own run by default)."""
+        run = self.run_id if run_id is None else run_id
+        return Header.now(self.stream, frame_index, self.name, capture_time_ns, run)
+
+    def header_for(self, source: Message) -> Header:
+        """A header for the result of ``source``: its frame, capture time and run."""
+        h = source.header
+        return self.header(h.frame_index, h.capture_time_ns, h.run_id)
+
+    def publish(self, message: Message, count: bool = True) -> None:
+        """Encode ``message`` and put it on its key with its topic's QoS."""
+        self.put(message.key(), encode(message), TOPIC_QOS.get(message.KIND, QoS()))
+        if count:
+            self.stats.frames_out += 1
+
+    def put(self, key: str, payload: bytes, qos: QoS | None = None) -> None:
+        """Put raw bytes on ``key`` through a publisher declared once per key (with ``qos``)."""
+        publisher = self._publishers.get(key)
+        if publisher is None:
+            with self._lock:
+                publisher = self._publishers.get(key)
+                if publisher is None:
+                    settings = (qos or QoS()).publisher_kwargs()
+                    publisher = self.session.declare_publisher(key, **settings)
+                    self._publishers[key] = publisher
+        publisher.put(payload)
+
+    # -- receiving ----------------------------------------------------------------------------
+
+    def _key_and_kind(self, kind_or_key: str, kind: str | None) -> tuple[str, str | None]:
+        if kind_or_key in TOPICS:
+            return self.key(kind_or_key), kind_or_key
+        return kind_or_key, kind
+
+    def _hold(self, holder: Any) -> Any:
+        self._holders.append(holder)
+        self.subscribe(holder.key, holder.push)
+        return holder
+
+    def inbox(self, kind_or_key: str, capacity: int = 1, kind: str | None = None) -> Inbox:
+        """The latest ``capacity`` messages of a kind of this stream (or a key expression)."""
+        key, kind = self._key_and_kind(kind_or_key, kind)
+        return self._hold(Inbox(self.screen, key, kind, capacity))
+
+    def latest(self, kind: str) -> Latest:
+        """The last message of a kind of this stream."""
+        return self._hold(Latest(self.screen, self.key(kind), kind))
+
+    def recent(self, kind: str, size: int) -> Recent:
+        """The last ``size`` messages of a kind of this stream, by frame."""
+        return self._hold(Recent(self.screen, self.key(kind), kind, size))
+
+    def messages(self, kind_or_key: str, capacity: int = 1,
+                 kind: str | None = None) -> Iterator[Received]:
+        """The service loop: each valid message of the run, until the service stops.
+
+        Subscribes now, so call it before :meth:`ready` (a peer waiting for
+        the service's token may publish at once); declares the service ready
+        when the loop starts if it is not yet; the time from yielding a
+        message to asking for the next is its latency.
+        """
+        inbox = self.inbox(kind_or_key, capacity, kind)
+
+        def loop() -> Iterator[Received]:
+            self.ready()
+            while not self.stopping:
+                got = inbox.get(timeout=POLL_S)
+                if got is not None:
+                    yield from self._timed(got)
+
+        return loop()
+
+    def messages_of(self, inputs: dict[str, tuple[str, int]], tick: float = POLL_S
+                    ) -> Iterator[Received | None]:
+        """The service loop over several inputs: ``{key or kind: (kind, capacity)}``.
+
+        Each round takes what is waiting from each input in the given order;
+        when nothing is waiting for ``tick`` seconds the loop yields None, so
+        that the caller can look at its clocks.
+        """
+        arrived = threading.Event()
+        inboxes = []
+        for name, (kind, capacity) in inputs.items():
+            inbox = self.inbox(name, capacity, kind)
+            inbox.arrived = arrived
+            inboxes.append(inbox)
+
+        def loop() -> Iterator[Received | None]:
+            self.ready()
+            while not self.stopping:
+                arrived.clear()
+                took = False
+                for inbox in inboxes:
+                    while (got := inbox.get(timeout=0)) is not None:
+                        took = True
+                        yield from self._timed(got)
+                if not took and not arrived.wait(tick):
+                    yield None
+
+        return loop()
+
+    def _timed(self, got: Received) -> Iterator[Received]:
+        started = time.perf_counter()
+        yield got
+        self.stats.latency.add(1000 * (time.perf_counter() - started))
+
+    def subscribe(self, key: str, callback: Callable[[Any], None]) -> Any:
+        """Declare a subscriber calling ``callback(sample)``; undeclared on close."""
+        import zenoh
+
+        sub = self.session.declare_subscriber(key, zenoh.handlers.Callback(callback))
+        self._declared.append(sub)
+        return sub
+
+    def queryable(self, key: str, callback: Callable[[Any], None]) -> Any:
+        """Declare a queryable calling ``callback(query)``; undeclared on close."""
+        import zenoh
+
+        qbl = self.session.declare_queryable(key, zenoh.handlers.Callback(callback))
+        self._declared.append(qbl)
+        return qbl
+
+    def querier(self, key: str, timeout: float) -> Any:
+        """Declare a querier of ``key`` with replies awaited ``timeout`` seconds."""
+        qos = TOPIC_QOS["fit"].publisher_kwargs()
+        q = self.session.declare_querier(key, timeout=timeout, **qos)
+        self._declared.append(q)
+        return q
+
+    def decode(self, payload: bytes, kind: str | None = None, source: str = "bus"
+               ) -> Message | None:
+        """Decode a payload; on failure count it as rejected, log the reason once, return None."""
+        try:
+            return decode(payload, kind)
+        except ProtoError as exc:
+            self.reject(source, exc.reason)
+            return None
+
+    def reject(self, source: str, reason: str) -> None:
+        """Count one rejected input; log its reason the first time a reason of its shape is seen.
+
+        Reasons that differ only in numbers count as one, so a flood of bad
+        input gives a handful of log lines; the total is in the status.
+        """
+        self.stats.rejected += 1
+        shape = re.sub(r"\d+", "#", reason)[:200]
+        if shape in self._reasons:
+            return
+        if len(self._reasons) < MAX_LOGGED_REASONS:
+            self._reasons.add(shape)
+            self.log.warning("rejected input from %s: %s", source, reason)
+        elif len(self._reasons) == MAX_LOGGED_REASONS:
+            self._reasons.add("")
+            self.log.warning("more kinds of rejected input: counted in the status only")
+
+    def peers(self) -> int:
+        """Zenoh peers and routers this session is connected to now."""
+        info = self.session.info
+        return len(list(info.peers_zid())) + len(list(info.routers_zid()))
+
+    # -- presence -----------------------------------------------------------------------------
+
+    def watch_presence(self) -> None:
+        """Follow which services of the stream hold liveliness tokens (with history)."""
+        import zenoh
+
+        def on_change(sample: Any) -> None:
+            name = str(sample.key_expr).rsplit("/", 1)[-1]
+            with self._lock:
+                if sample.kind == zenoh.SampleKind.DELETE:
+                    self._alive.discard(name)
+                else:
+                    self._alive.add(name)
+
+        sub = self.session.liveliness().declare_subscriber(
+            alive_wildcard(self.stream), zenoh.handlers.Callback(on_change), history=True)
+        self._declared.append(sub)
+        self._watching = True
+
+    def alive(self) -> set[str]:
+        """Services of the stream alive now (after :meth:`watch_presence`)."""
+        with self._lock:
+            return set(self._alive)
+
+    def wait_for_alive(self, services: Iterable[str], timeout: float) -> list[str]:
+        """Wait until ``services`` of this stream are alive; return those missing."""
+        if not self._watching:
+            self.watch_presence()
+        wanted = set(services)
+        deadline = time.monotonic() + timeout
+        while not self.stopping:
+            missing = wanted - self.alive()
+            if not missing or time.monotonic() >= deadline:
+                return sorted(missing)
+            self.wait(0.02)
+        return sorted(wanted - self.alive())
+
+    # -- status -------------------------------------------------------------------------------
+
+    @property
+    def state(self) -> str:
+        return self._state
+
+    def set_state(self, state: str, message: str | None = None) -> None:
+        """Set the state (one of ``proto.messages.STATES``) and optionally the status message."""
+        if state not in STATES:
+            raise ValueError(f"state {state!r} is not one of {list(STATES)}")
+        self._state = state
+        if message is not None:
+            self._message = message[:1000]
+
+    def status(self) -> Status:
+        """The status message for the current counts."""
+        p50, p99 = self.stats.latency.percentiles()
+        s = self.stats
+        return Status(
+            self.header(s.last_frame, s.last_capture_ns or None),
+            service=self.name, state=self._state, frames_in=s.frames_in,
+            frames_out=s.frames_out, dropped=s.dropped, rejected=s.rejected, lost=s.lost,
+            ignored=s.ignored, latency_p50_ms=p50, latency_p99_ms=p99, restarts=self.restarts,
+            message=self._message,
+        )
+
+    def _status_loop(self) -> None:
+        while not self._stop.wait(self._status_period):
+            try:
+                status = self.status()
+                self.put(status.key(), encode(status), TOPIC_QOS["status"])
+            except Exception as exc:  # keep the thread alive; the next period retries
+                self.log.debug("status not published: %s", exc)
+
+
+def _undeclare(item: Any) -> None:
+    if item is None:
+        return
+    try:
+        item.undeclare()
+    except Exception as exc:  # already gone with a broken session; nothing left to free
+        _log.debug("undeclare failed: %s", exc)

@@ -1,0 +1,191 @@
+"""Tools beside a running stack: ``aamtrack echo`` and ``aamtrack record``.
+
+- ``aamtrack echo KEYEXPR``: print each message on a key expression, one line each.
+- ``aamtrack record --out FILE``: write every result message of a stream to a
+  file (:mod:`services.stack.recorder`).
+
+Both connect to ``tcp/127.0.0.1:7447`` (where ``aamtrack run`` listens by
+default) unless told otherwise, publish nothing on the stack's stream, and
+give up with exit status 1 when no stack answers within ``--timeout`` seconds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import threading
+import time
+from typing import Any
+
+from proto import Message
+from proto.keys import TOPICS, status_wildcard, topic_key
+from services.bus.connection import BusOptions
+from services.bus.options import OptionError, add_options, options_from
+from services.bus.process import init_process
+from services.bus.session import Service
+from services.stack.recorder import IMAGE_KINDS, RESULT_KINDS, RecordWriter
+
+DEFAULT_TIMEOUT = 10.0
+"""Seconds to wait for a stack before giving up."""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``echo`` and ``record``."""
+    p = subparsers.add_parser("echo", help="print the messages on a key expression",
+                              description="Subscribe to KEYEXPR and print one line per message.")
+    p.add_argument("keyexpr", help="e.g. aamtrack/cam0/** or aamtrack/*/pose")
+    p.add_argument("--count", type=int, default=0, help="stop after N messages")
+    _common(p)
+    p.set_defaults(func=cmd_echo)
+    p = subparsers.add_parser("record", help="record a stream's result messages to a file",
+                              description="Write every fit, pose, expression, boxes, status "
+                              "and end-of-stream message to FILE (services.stack.recorder).")
+    p.add_argument("--out", required=True, help="recording file")
+    p.add_argument("--frames", action="store_true", help="record frames too")
+    p.add_argument("--overlays", action="store_true", help="record overlays too")
+    p.add_argument("--until-eos", action="store_true",
+                   help="stop 2 s after the stream's end of stream")
+    _common(p)
+    p.set_defaults(func=cmd_record)
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT, metavar="S",
+                   help="give up (exit 1) when no stack answers within S seconds "
+                   f"(default {DEFAULT_TIMEOUT:g})")
+    p.add_argument("--duration", type=float, default=0.0, metavar="S",
+                   help="stop after S seconds (default: until stopped)")
+    add_options(p.add_argument_group("bus"), BusOptions)
+
+
+def _client_bus(args: argparse.Namespace) -> BusOptions:
+    """The bus of ``echo`` and ``record``: by default, connect where ``run`` listens."""
+    from services.stack.launcher import DEFAULT_ENDPOINT
+
+    bus = options_from(BusOptions, args)
+    if not bus.listen and not bus.connect:
+        bus = bus.replace(connect=(DEFAULT_ENDPOINT,))
+    return bus
+
+
+def _wait_for_peer(svc: Service, timeout: float) -> bool:
+    """Whether a peer (the stack) is connected within ``timeout`` seconds."""
+    deadline = time.monotonic() + timeout
+    while not svc.peers():
+        if time.monotonic() >= deadline or svc.wait(0.05):
+            return False
+    return True
+
+
+def _run(svc: Service, args: argparse.Namespace, done: threading.Event) -> int:
+    """Run until done, stopped or ``--duration``; 1 when no stack was found."""
+    if not _wait_for_peer(svc, args.timeout):
+        where = ", ".join(svc.bus.connect or svc.bus.listen)
+        print(f"aamtrack {args.command}: error: no aamtrack stack answered at {where} within "
+              f"{args.timeout:g} s", file=sys.stderr)
+        return 1
+    deadline = time.monotonic() + args.duration if args.duration > 0 else math.inf
+    while not done.is_set() and not svc.wait(0.05) and time.monotonic() < deadline:
+        pass
+    return 0
+
+
+def _number(x: float) -> str:
+    return "nan" if math.isnan(x) else f"{x:.1f}"
+
+
+def describe(msg: Message) -> str:
+    """One line about a message: kind, frame, producer, latency and the body's gist."""
+    h = msg.header
+    head = (f"{msg.KIND:<10} {h.stream_id} #{h.frame_index} from {h.producer} "
+            f"+{(h.publish_time_ns - h.capture_time_ns) / 1e6:.1f} ms")
+    kind = msg.KIND
+    if kind in ("frame", "overlay"):
+        body = f"{msg.width}x{msg.height} {msg.encoding}"
+    elif kind == "boxes":
+        body = f"{len(msg.boxes)} boxes {msg.boxes.round(1).tolist()}"
+    elif kind == "fit":
+        body = (f"{len(msg.landmarks)} points, error {msg.texture_error:.4g}, "
+                f"{msg.iterations} it, warp {msg.warp_path}"
+                + (f", FAILED: {msg.failure_reason}" if msg.failed else ""))
+    elif kind == "pose":
+        t = msg.translation_mm
+        body = (f"roll {msg.roll_deg:.1f} pitch {msg.pitch_deg:.1f} yaw {msg.yaw_deg:.1f} deg, "
+                f"T [{t[0]:.0f} {t[1]:.0f} {t[2]:.0f}] mm"
+                + ("" if msg.reliable else ", unreliable"))
+    elif kind == "expression":
+        best = float(max(msg.scores)) if len(msg.scores) else math.nan
+        body = f"{msg.label} ({best:.2f})" + (", smoothed" if msg.smoothed else "")
+    elif kind == "status":
+        body = (f"{msg.service} {msg.state} in {msg.frames_in} out {msg.frames_out} "
+                f"dropped {msg.dropped} rejected {msg.rejected} lost {msg.lost} ignored "
+                f"{msg.ignored} p50 "
+                f"{_number(msg.latency_p50_ms)} ms p99 {_number(msg.latency_p99_ms)} ms"
+                + (f" restarts {msg.restarts}" if msg.restarts else "")
+                + (f" | {msg.message}" if msg.message else ""))
+    else:
+        body = f"{msg.total_frames} frames, {msg.reason}"
+    return f"{head}: {body}"
+
+
+def cmd_echo(args: argparse.Namespace) -> int:
+    """``aamtrack echo KEYEXPR``."""
+    try:
+        bus = _client_bus(args)
+    except OptionError as exc:
+        print(f"aamtrack echo: error: {exc}", file=sys.stderr)
+        return 2
+    init_process("echo", args.verbose)
+    done, lock, seen = threading.Event(), threading.Lock(), [0]
+    with Service("echo", bus, announce=False) as svc:
+        def on_sample(sample: Any) -> None:
+            msg = svc.decode(sample.payload.to_bytes(), source=str(sample.key_expr))
+            line = (describe(msg) if msg is not None
+                    else f"{'rejected':<10} {sample.key_expr}: see the log for the reason")
+            with lock:
+                if done.is_set():
+                    return
+                print(line, flush=True)
+                seen[0] += 1
+                if args.count and seen[0] >= args.count:
+                    done.set()
+
+        svc.subscribe(args.keyexpr, on_sample)
+        svc.ready()
+        return _run(svc, args, done)
+
+
+def record_keys(stream: str, frames: bool, overlays: bool) -> list[str]:
+    """Keys a recording of ``stream`` subscribes to."""
+    kinds = [k for k in RESULT_KINDS if k in TOPICS]
+    kinds += [k for k, on in zip(IMAGE_KINDS, (frames, overlays), strict=True) if on]
+    return [topic_key(stream, k) for k in kinds] + [status_wildcard(stream)]
+
+
+def cmd_record(args: argparse.Namespace) -> int:
+    """``aamtrack record --out FILE``."""
+    try:
+        bus = _client_bus(args)
+    except OptionError as exc:
+        print(f"aamtrack record: error: {exc}", file=sys.stderr)
+        return 2
+    init_process("record", args.verbose)
+    ended = threading.Event()
+    with RecordWriter(args.out) as writer, Service("record", bus, announce=False) as svc:
+        def on_sample(sample: Any) -> None:
+            payload = sample.payload.to_bytes()
+            msg = svc.decode(payload, source=str(sample.key_expr))
+            if msg is None:
+                return
+            writer.write(payload)
+            svc.stats.count_in(msg.header)
+            if msg.KIND == "eos" and args.until_eos:
+                threading.Timer(2.0, ended.set).start()
+
+        for key in record_keys(bus.stream, args.frames, args.overlays):
+            svc.subscribe(key, on_sample)
+        svc.ready(f"recording to {args.out}")
+        code = _run(svc, args, ended)
+    print(f"recorded {writer.count} messages to {args.out}", file=sys.stderr)
+    return code

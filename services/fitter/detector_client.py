@@ -1,0 +1,95 @@
+"""Asking the detector service for face boxes, with a local Haar detector as fallback."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from aamcore.detection.haar import HaarFaceDetector
+from proto import Frame, ProtoError, decode, encode
+from proto.keys import detect_key
+from services.bus.session import Service
+
+
+class ServiceDetector:
+    """Face detection through the detector service (a Zenoh querier), with a local fallback.
+
+    Has the ``detect(image) -> (K, 4)`` call that :class:`aamcore.fitting.tracker.Tracker`
+    expects. :meth:`set_frame` names the frame message about to be tracked, so
+    that a query carries the bytes received rather than a re-encoding.
+
+    Parameters
+    ----------
+    svc : Service
+    timeout : float
+        Seconds to wait for the service's reply.
+    local_for : float
+        Seconds to detect locally after the service failed to answer.
+    """
+
+    def __init__(self, svc: Service, timeout: float, local_for: float) -> None:
+        self.svc = svc
+        self.timeout = timeout
+        self.local_for = local_for
+        self.queries = 0
+        self.local_detections = 0
+        self._querier = svc.querier(detect_key(svc.stream), timeout)
+        self._local: HaarFaceDetector | None = None
+        self._local_until = 0.0
+        self._frame: Frame | None = None
+        self._payload = b""
+
+    def set_frame(self, frame: Frame, payload: bytes) -> None:
+        """The frame message the next :meth:`detect` calls are about, and its bytes."""
+        self._frame, self._payload = frame, payload
+
+    def detect(self, image: np.ndarray) -> np.ndarray:
+        """Face boxes ``(K, 4)`` float64 ``x, y, w, h`` in ``image``, largest first."""
+        if time.monotonic() >= self._local_until:
+            boxes = self._ask(image)
+            if boxes is not None:
+                return boxes
+            self._local_until = time.monotonic() + self.local_for
+            self.svc.log.warning(
+                "the detector service did not answer within %g s: detecting locally for %g s",
+                self.timeout, self.local_for)
+        return self._detect_locally(image)
+
+    def _payload_for(self, image: np.ndarray) -> bytes:
+        frame = self._frame
+        if frame is not None and (frame.width, frame.height) == (image.shape[1], image.shape[0]):
+            return self._payload
+        height, width = image.shape[:2]
+        return encode(Frame(self.svc.header(0), "raw", width, height, image))
+
+    def _ask(self, image: np.ndarray) -> np.ndarray | None:
+        self.queries += 1
+        for reply in self._querier.get(payload=self._payload_for(image)):
+            if reply.ok is None:
+                self.svc.reject("detector reply", f"error reply: {_err_text(reply)}")
+                continue
+            try:
+                boxes = decode(reply.ok.payload.to_bytes(), "boxes")
+            except ProtoError as exc:
+                self.svc.reject("detector reply", exc.reason)
+                continue
+            if (boxes.image_width, boxes.image_height) != (image.shape[1], image.shape[0]):
+                self.svc.reject("detector reply", "boxes for a frame of another size")
+                continue
+            return boxes.boxes.astype(np.float64)
+        return None
+
+    def _detect_locally(self, image: np.ndarray) -> np.ndarray:
+        if self._local is None:
+            self._local = HaarFaceDetector()
+        self.local_detections += 1
+        return self._local.detect(image)
+
+
+def _err_text(reply: Any) -> str:
+    try:
+        return reply.err.payload.to_bytes().decode(errors="replace")[:200]
+    except Exception:  # an error reply without a readable payload
+        return "no reason given"

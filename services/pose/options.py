@@ -1,0 +1,24 @@
+"""The pose service's options (see :mod:`services.bus.options`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from aamcore import defaults
+from services.bus.options import OptionError, Options, in_range, option
+
+
+@dataclass(frozen=True)
+class PoseOptions(Options):
+    """The camera the poses are estimated for."""
+
+    fov: float = option(defaults.FOV_DEG, "assumed horizontal field of view, degrees",
+                        check=in_range(1, 179))
+    calibration: str | None = option(None, "camera calibration file (.yaml, .xml, .json)",
+                                     metavar="FILE")
+    capacity: int = option(8, "latest fits kept while busy", check=in_range(1, 1024))
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.calibration is not None and self.fov != defaults.FOV_DEG:
+            raise OptionError("give --fov or --calibration, not both")

@@ -1,0 +1,174 @@
+"""What the launcher sees on the bus: results per frame, statuses, end of stream, the summary.
+
+Everything is screened like a service's input (:class:`services.bus.inbox.Screen`):
+only messages of the run's own services count; those of another run are
+ignored and their runs listed in the summary.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from typing import Any
+
+from proto import EndOfStream, Message, Status, decode
+from proto.keys import status_wildcard
+from services.bus.session import Service
+from services.stack.recorder import IMAGE_KINDS, RESULT_KINDS, RecordWriter
+
+RESULTS = ("fit", "pose", "expression")
+
+
+class StackMonitor:
+    """Counts and records a run's messages, as the launcher's service receives them."""
+
+    def __init__(self, svc: Service, recorder: RecordWriter | None, record_images: bool) -> None:
+        self.svc = svc
+        self.recorder = recorder
+        self.indices: dict[str, set[int]] = {k: set() for k in RESULTS}
+        self.counts: dict[str, int] = {k: 0 for k in (*RESULT_KINDS, *IMAGE_KINDS)}
+        self.fits_failed = 0
+        self.fits_no_face = 0
+        self.statuses: dict[str, Status] = {}
+        self.foreign: dict[str, set[str]] = {}
+        """Run id -> services of another run seen on the bus (from their statuses)."""
+        self.eos: EndOfStream | None = None
+        self.last_result = time.monotonic()
+        self.pose_latency_ms: list[float] = []
+        self._lock = threading.Lock()
+        self._record_images = record_images
+
+    def subscribe(self) -> None:
+        for kind in ("boxes", "fit", "pose", "expression", "eos", *IMAGE_KINDS):
+            self.svc.subscribe(self.svc.key(kind), self._on_sample)
+        self.svc.subscribe(status_wildcard(self.svc.stream), self._on_sample)
+
+    def _on_sample(self, sample: Any) -> None:
+        key, payload = str(sample.key_expr), sample.payload.to_bytes()
+        kind = key.rsplit("/", 2)[-2] if "/status/" in key else key.rsplit("/", 1)[-1]
+        msg = self.svc.screen.check(payload, key, kind)
+        if msg is None:
+            self._note_foreign(payload, kind)
+            return
+        if self.recorder is not None and (kind not in IMAGE_KINDS or self._record_images):
+            self.recorder.write(payload)
+        with self._lock:
+            self._count(msg)
+
+    def _note_foreign(self, payload: bytes, kind: str) -> None:
+        if kind != "status":
+            return
+        try:
+            status = decode(payload, "status")
+        except ValueError:
+            return
+        if status.header.run_id != self.svc.run_id:
+            with self._lock:
+                self.foreign.setdefault(status.header.run_id, set()).add(status.service)
+
+    def _count(self, msg: Message) -> None:
+        self.counts[msg.KIND] += 1
+        if msg.KIND in self.indices:
+            self.indices[msg.KIND].add(msg.header.frame_index)
+            self.last_result = time.monotonic()
+        if msg.KIND == "overlay":
+            self.last_result = time.monotonic()
+        elif msg.KIND == "fit" and msg.failed:
+            self.fits_failed += 1
+            self.fits_no_face += len(msg.landmarks) == 0
+        elif msg.KIND == "pose":
+            h = msg.header
+            self.pose_latency_ms.append((h.publish_time_ns - h.capture_time_ns) / 1e6)
+        elif msg.KIND == "status":
+            self.statuses[msg.service] = msg
+        elif msg.KIND == "eos":
+            self.eos = msg
+
+    def wait_for_final_statuses(self, services: list[str], timeout: float) -> list[str]:
+        """Wait until each of ``services`` has sent its last status; return those missing."""
+        deadline = time.monotonic() + timeout
+        while True:
+            with self._lock:
+                missing = [n for n in services if n not in self.statuses
+                           or self.statuses[n].state not in ("stopped", "failed")]
+            if not missing or time.monotonic() >= deadline:
+                return missing
+            time.sleep(0.02)
+
+    def last_fit_in(self) -> bool:
+        """Whether the fit of the stream's last frame has arrived."""
+        if self.eos is None:
+            return False
+        with self._lock:
+            return self.eos.total_frames == 0 or self.eos.total_frames - 1 in self.indices["fit"]
+
+    def quiet_for(self) -> float:
+        return time.monotonic() - self.last_result
+
+    def summary(self, exclude: str = "") -> dict[str, Any]:
+        """Counts, end of stream, each service's last status and the frames lost, as plain data."""
+        with self._lock:
+            total = None if self.eos is None else self.eos.total_frames
+            services = {n: _status_dict(s) for n, s in sorted(self.statuses.items())
+                        if n != exclude}
+            return {
+                "total_frames": total,
+                "eos_reason": None if self.eos is None else self.eos.reason,
+                "frames_with": {k: len(v) for k, v in self.indices.items()},
+                "messages": dict(self.counts),
+                "fits_failed": self.fits_failed,
+                "fits_no_face": self.fits_no_face,
+                "pose_latency_ms": _percentiles(sorted(self.pose_latency_ms)),
+                "services": services,
+                "frames_lost": frames_lost(services.get("fitter"), total),
+                "foreign_runs": {run: sorted(names) for run, names in self.foreign.items()},
+            }
+
+
+def frames_lost(fitter: dict[str, Any] | None, total: int | None) -> int:
+    """Frames of the run the fitter never saw: neither taken, dropped by design nor rejected."""
+    if fitter is None or total is None:
+        return 0
+    seen = fitter["frames_in"] + fitter["dropped"] + fitter["rejected"]
+    return max(fitter["lost"], total - seen)
+
+
+def _percentiles(values: list[float]) -> dict[str, float | None]:
+    if not values:
+        return {"p50": None, "p99": None}
+    import numpy as np
+
+    p50, p99 = np.percentile(values, [50, 99])
+    return {"p50": float(p50), "p99": float(p99)}
+
+
+def _status_dict(s: Status) -> dict[str, Any]:
+    def num(x: float) -> float | None:
+        return None if math.isnan(x) else round(x, 3)
+
+    return {"state": s.state, "frames_in": s.frames_in, "frames_out": s.frames_out,
+            "dropped": s.dropped, "rejected": s.rejected, "lost": s.lost, "ignored": s.ignored,
+            "latency_p50_ms": num(s.latency_p50_ms), "latency_p99_ms": num(s.latency_p99_ms),
+            "restarts": s.restarts, "message": s.message}
+
+
+def summary_table(summary: dict[str, Any]) -> str:
+    """The summary as a few lines of text."""
+    lines = [f"end of stream: {summary['total_frames']} frames ({summary['eos_reason']}); "
+             f"frames with a fit {summary['frames_with']['fit']}, pose "
+             f"{summary['frames_with']['pose']}, expression "
+             f"{summary['frames_with']['expression']}; failed fits {summary['fits_failed']} "
+             f"(no face {summary['fits_no_face']}); overlays {summary['messages']['overlay']}; "
+             f"frames lost {summary['frames_lost']}",
+             f"{'service':<12} {'state':<9} {'in':>6} {'out':>6} {'dropped':>7} {'rejected':>8} "
+             f"{'lost':>5} {'ignored':>7} {'p50 ms':>7} {'p99 ms':>7} {'restarts':>8}"]
+    for name, s in summary["services"].items():
+        p50 = "-" if s["latency_p50_ms"] is None else f"{s['latency_p50_ms']:.1f}"
+        p99 = "-" if s["latency_p99_ms"] is None else f"{s['latency_p99_ms']:.1f}"
+        lines.append(f"{name:<12} {s['state']:<9} {s['frames_in']:>6} {s['frames_out']:>6} "
+                     f"{s['dropped']:>7} {s['rejected']:>8} {s['lost']:>5} {s['ignored']:>7} "
+                     f"{p50:>7} {p99:>7} {s['restarts']:>8}")
+    for run, names in summary.get("foreign_runs", {}).items():
+        lines.append(f"ignored: services of another run {run!r} on this bus: {', '.join(names)}")
+    return "\n".join(lines)

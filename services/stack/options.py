@@ -1,0 +1,168 @@
+"""What ``aamtrack run`` is asked to do: the launcher's own options and each service's.
+
+The services' options are their own dataclasses (``services/<name>/options.py``);
+``aamtrack run`` offers the ones of :data:`RUN_OPTIONS` under the same flags,
+so that help, defaults, choices and range checks are written once, and the
+launcher turns each service's dataclass back into its command line
+(:func:`services.bus.args.service_argv`).
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from services.bus.connection import BusOptions
+from services.bus.options import (
+    OptionError,
+    Options,
+    add_options,
+    in_range,
+    option,
+    options_from,
+)
+from services.stack.registry import SERVICES
+
+RUN_OPTIONS: dict[str, tuple[str, ...] | None] = {
+    "source": None,
+    "fitter": ("model", "model_limit", "model_images", "algorithm", "failure_test", "warp"),
+    "pose": ("fov", "calibration"),
+    "expression": ("classifier",),
+    "rerun": ("rrd", "serve"),
+}
+"""The options of each service that ``aamtrack run`` offers (None: all of them)."""
+ALWAYS = ("detector", "fitter", "pose", "expression")
+"""Services every stack runs, beside the source."""
+
+
+@dataclass(frozen=True)
+class LaunchOptions(Options):
+    """The launcher's own options."""
+
+    stream: str = option("cam0", "stream id")
+    endpoint: str | None = option(None, "zenoh endpoint the stack listens on, for other "
+                                  "programs to connect to (default tcp/127.0.0.1:7447 if free, "
+                                  "else a free loopback port)", metavar="ENDPOINT")
+    ar: bool = option(True, "start the glasses renderer")
+    record: str | None = option(None, "record every result message to FILE", metavar="FILE")
+    record_images: bool = option(False, "with --record: frames and overlays too")
+    summary: str | None = option(None, "write the run's summary as JSON", metavar="FILE")
+    restart: bool = option(True, "restart services that die")
+    start_timeout: float = option(120.0, "seconds to wait for the services to start",
+                                  check=in_range(1))
+    drain_quiet: float = option(0.75, "after end of stream, seconds of quiet that end the run",
+                                check=in_range(0))
+    drain_max: float = option(20.0, "seconds to wait for results after end of stream",
+                              check=in_range(0))
+
+
+@dataclass(frozen=True)
+class StackOptions:
+    """A whole run: the launcher's options, the services started with theirs, extra arguments.
+
+    Attributes
+    ----------
+    launch : LaunchOptions
+    services : dict of str to Options
+        The services to start, by name, with their options (the source among them).
+    extra : dict of str to list of str
+        Extra command-line arguments per service (``--set SERVICE:ARG``).
+    verbose : bool
+    bus : BusOptions, optional
+        For one host of a stack spread over several: the bus every process
+        joins (a router's); None runs the whole stack on this machine.
+    wait_for : tuple of str, optional
+        The services the source waits for (default: the others started here).
+    """
+
+    launch: LaunchOptions = LaunchOptions()
+    services: dict[str, Any] = field(default_factory=dict)
+    extra: dict[str, list[str]] = field(default_factory=dict)
+    verbose: bool = False
+    bus: BusOptions | None = None
+    wait_for: tuple[str, ...] | None = None
+
+    def options(self, name: str) -> Any:
+        """The options of service ``name`` (its defaults when it is not started)."""
+        return self.services.get(name) or SERVICES[name].options()
+
+
+def add_run_options(parser: argparse.ArgumentParser) -> None:
+    """Add the launcher's options and the services' :data:`RUN_OPTIONS` to ``parser``."""
+    add_options(parser, LaunchOptions)
+    for name, only in RUN_OPTIONS.items():
+        add_options(parser.add_argument_group(name), SERVICES[name].options, only)
+    parser.add_argument("--set", action="append", default=[], metavar="SERVICE:ARG",
+                        help="extra argument for one service, e.g. fitter:--detect-timeout=2")
+
+
+def extra_args(items: Sequence[str]) -> dict[str, list[str]]:
+    """``--set SERVICE:ARG`` items by service.
+
+    Raises
+    ------
+    OptionError
+    """
+    extra: dict[str, list[str]] = {}
+    for item in items:
+        name, sep, arg = item.partition(":")
+        if not sep or name not in SERVICES or not arg:
+            raise OptionError(f"--set {item!r}: expected SERVICE:ARG with SERVICE one of "
+                              f"{', '.join(SERVICES)}")
+        extra.setdefault(name, []).append(arg)
+    return extra
+
+
+def stack_options(args: argparse.Namespace, base: StackOptions | None = None) -> StackOptions:
+    """The run asked for by parsed ``run`` arguments, over ``base`` (e.g. a stack file's).
+
+    Raises
+    ------
+    OptionError
+    """
+    base = base or StackOptions()
+    launch = options_from(LaunchOptions, args, base=base.launch)
+    every = {name: options_from(info.options, args, RUN_OPTIONS.get(name, ()),
+                                base=base.services.get(name))
+             for name, info in SERVICES.items()}
+    if base.services:
+        names = list(base.services)
+    else:
+        rerun = every["rerun"]
+        names = ["source", *ALWAYS, *(["ar"] if launch.ar else []),
+                 *(["rerun"] if rerun.rrd is not None or rerun.serve is not None else [])]
+    services = {name: every[name] for name in SERVICES if name in names}
+    if "source" in services and not services["source"].has_input:
+        raise OptionError("give the input: --video FILE, --camera INDEX or --url URL")
+    extra = {**base.extra, **extra_args(getattr(args, "set", []) or [])}
+    return StackOptions(launch, services, extra, bool(getattr(args, "verbose", False)),
+                        base.bus, base.wait_for)
+
+
+def from_stack_file(path: str, host: str | None = None) -> StackOptions:
+    """The run of a stack file: every service on this machine, or those of ``host``.
+
+    Raises
+    ------
+    OptionError
+    """
+    from services.stack.stack_file import read_stack_file
+
+    stack = read_stack_file(path)
+    services = stack.services_of(host)
+    if not services:
+        raise OptionError(f"--stack {path}: no service to run" + (f" on {host}" if host else ""))
+    launch = LaunchOptions(stream=stack.stream, ar="ar" in services)
+    if host is None:
+        return StackOptions(launch, services)
+    others = tuple(n for n in stack.services_of() if n != "source")
+    return StackOptions(launch, services, bus=stack.bus(host), wait_for=others)
+
+
+def parse_run_args(argv: Sequence[str]) -> StackOptions:
+    """:func:`stack_options` of an ``aamtrack run`` command line (for tests and benches)."""
+    parser = argparse.ArgumentParser(prog="aamtrack run")
+    add_run_options(parser)
+    return stack_options(parser.parse_args(list(argv)))

@@ -1,0 +1,115 @@
+"""Everything the launcher can check before it starts a process.
+
+Each check raises :class:`PreflightError` with one line naming the option
+and the problem, so that ``aamtrack run`` exits 2 within a second or two
+instead of starting the stack and failing later:
+
+- every service's command line, parsed by that service's own parser;
+- the input: a video is opened and its frame size checked against the
+  frame limit;
+- the fitting model (loaded once), the expression classifier (loaded and
+  matched to the model) and the camera calibration (read and checked);
+- the endpoint the launcher listens on (free, or given in a form Zenoh reads).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import re
+import socket
+from typing import Any
+
+from services.bus.args import parse_service_args, service_argv
+from services.bus.connection import BusOptions
+from services.stack.options import StackOptions
+from services.stack.registry import SERVICES
+
+ENDPOINT = re.compile(r"tcp/(?P<host>[0-9A-Za-z.\-\[\]:]+):(?P<port>\d+)")
+
+
+class PreflightError(ValueError):
+    """A run cannot start; the message is one line naming the option and the problem."""
+
+
+def check_service_args(opts: StackOptions, bus: BusOptions) -> None:
+    """Parse each service's full command line (with ``--set`` extras) by its own parser."""
+    for name, options in opts.services.items():
+        argv = service_argv(bus, options) + opts.extra.get(name, [])
+        info = SERVICES[name]
+        err = io.StringIO()
+        try:
+            with contextlib.redirect_stderr(err):
+                parse_service_args(name, info.summary, info.options, argv)
+        except SystemExit:
+            lines = [line for line in err.getvalue().splitlines() if "error:" in line]
+            problem = lines[-1].split("error:", 1)[1].strip() if lines else "invalid arguments"
+            raise PreflightError(f"{name}: {problem}") from None
+
+
+def check_input(opts: StackOptions) -> None:
+    """Open a video input once (cameras and streams are opened by the source)."""
+    source = opts.services.get("source")
+    if source is None or source.video is None:
+        return
+    from services.source.capture import InputSpec, SourceError, VideoInput
+
+    try:
+        VideoInput(InputSpec.of(source)).close()
+    except SourceError as exc:
+        raise PreflightError(f"--video: {exc}") from None
+
+
+def check_models(opts: StackOptions) -> None:
+    """Load the fitting model, the classifier and the calibration the services are given."""
+    from aamcore.fitting.model import FittingModel
+    from aamcore.model.file import ModelFileError
+
+    fitter = opts.services.get("fitter")
+    if fitter is not None and fitter.model:
+        try:
+            FittingModel.load(fitter.model)
+        except ModelFileError as exc:
+            raise PreflightError(f"--model: {exc}") from None
+    _check_classifier(opts.services.get("expression"))
+    pose = opts.services.get("pose")
+    if pose is not None and pose.calibration:
+        from aamcore.pose import CameraIntrinsics, IntrinsicsError
+
+        try:
+            CameraIntrinsics.from_file(pose.calibration)
+        except (IntrinsicsError, OSError, ValueError) as exc:
+            raise PreflightError(f"--calibration: {exc}") from None
+
+
+def _check_classifier(expression: Any) -> None:
+    if expression is None or not expression.classifier:
+        return
+    from aamcore.expression import AAMMismatchError, ClassifierFileError, ExpressionClassifier
+    from aamcore.expression.training import model_fingerprint
+
+    try:
+        classifier = ExpressionClassifier.load(expression.classifier)
+        if expression.model:
+            classifier.check_aam(model_fingerprint(expression.model))
+    except (ClassifierFileError, AAMMismatchError, OSError) as exc:
+        raise PreflightError(f"--classifier: {exc}") from None
+
+
+def check_endpoint(endpoint: str, explicit: bool) -> None:
+    """An endpoint the launcher can listen on: ``tcp/HOST:PORT`` with the port free."""
+    match = ENDPOINT.fullmatch(endpoint)
+    if match is None:
+        raise PreflightError(f"--endpoint {endpoint!r}: expected tcp/HOST:PORT, e.g. "
+                             "tcp/127.0.0.1:7447")
+    host, port = match["host"].strip("[]"), int(match["port"])
+    if not 1 <= port <= 65535:
+        raise PreflightError(f"--endpoint {endpoint}: port {port} is outside 1 to 65535")
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind((host, port))
+        except OSError as exc:
+            why = "in use (another run of the stack?)" if explicit else exc.strerror
+            raise PreflightError(f"--endpoint {endpoint}: cannot listen there: {why}") from None

@@ -1,0 +1,114 @@
+import numpy as np
+import pytest
+
+from aamcore.evaluation.metrics import nme
+from aamcore.fitting.algorithm.fixed_jacobian import FixedJacobian
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.tracker import Tracker
+from aamcore.fitting.training.update import PerturbationScheme, train_update
+from aamcore.model.similarity import Similarity
+
+
+def _nme(result, sample, scheme) -> float:
+    return nme(result.points, sample.points, scheme)
+
+
+def _true_pose_start(fitter, sample, dx=0.0, dy=0.0):
+    _, sim = fitter.aam.shape.fit_points(sample.points)
+    return np.zeros(fitter.aam.n_appearance), Similarity(sim.a, sim.b, sim.tx + dx, sim.ty + dy)
+
+
+@pytest.mark.parametrize(
+    "algorithm", ["fixed-jacobian", "multi-resolution", "project-out-ic", "supervised-descent"]
+)
+def test_fit_from_displaced_start_on_held_out_subjects(imm_fit_model, imm_test, algorithm) -> None:
+    fitter = Fitter(imm_fit_model, algorithm)
+    scheme = fitter.aam.scheme
+    errors, starts = [], []
+    for sample in imm_test[::3]:
+        c0, t0 = _true_pose_start(fitter, sample, dx=20.0)
+        starts.append(nme(fitter.aam.shape_instance(c0, t0), sample.points, scheme))
+        result = fitter.fit(sample.load_image(), c0, t0)
+        errors.append(_nme(result, sample, scheme))
+        assert result.iterations >= 1 and len(result.iteration_seconds) == result.iterations
+    assert np.median(errors) < 0.05
+    assert np.mean(errors) < 0.5 * np.mean(starts)
+
+
+def test_haar_start_fits_held_out_faces(imm_fit_model, imm_test) -> None:
+    tracker = Tracker(Fitter(imm_fit_model))
+    errors = []
+    for sample in imm_test[::4]:
+        tracker.reset()
+        result = tracker.track(sample.load_image())
+        assert result is not None
+        errors.append(_nme(result, sample, imm_fit_model.aam.scheme))
+    assert np.mean(errors) < 0.05
+
+
+def test_tracking_reuses_the_last_fit(imm_fit_model, imm_test) -> None:
+    tracker = Tracker(Fitter(imm_fit_model))
+    image = imm_test[0].load_image()
+    first = tracker.track(image)
+    assert first is not None and first.ok and tracker.detections == 1
+    again = tracker.track(image)
+    assert again is not None and tracker.detections == 1
+    drift = np.linalg.norm(again.points - first.points, axis=1).mean()
+    assert drift < 0.02 * imm_fit_model.aam.scheme.inter_ocular(first.points)
+
+
+def test_regression_and_jacobian_updates(imm_fit_model, imm_train, imm_test) -> None:
+    scheme = PerturbationScheme()
+    aam = imm_fit_model.aam
+    for method in ("regression", "jacobian"):
+        update = train_update(aam, imm_train, method, scheme, max_images=10)
+        assert update.R.shape == (aam.n_appearance + 4, aam.frame.n_pixels)
+        algorithm = FixedJacobian(aam, update)
+        sample = imm_test[1]
+        _, sim = aam.shape.fit_points(sample.points)
+        sim = Similarity(sim.a, sim.b, sim.tx + 12.0, sim.ty - 8.0)
+        c0 = np.zeros(aam.n_appearance)
+        image = aam.prepare_image(sample.load_image())
+        start = nme(aam.shape_instance(c0, sim), sample.points, aam.scheme)
+        result = algorithm.run(image, c0, sim)
+        assert nme(result.points, sample.points, aam.scheme) < 0.5 * start
+        assert result.errors[-1] <= result.errors[0]
+
+
+def test_no_face_and_odd_images(imm_fit_model, imm_test) -> None:
+    tracker = Tracker(Fitter(imm_fit_model))
+    assert tracker.track(np.full((480, 640, 3), 127, np.uint8)) is None
+    image = imm_test[2].load_image()
+    for variant in (
+        image[..., 0],
+        np.dstack([image, np.full(image.shape[:2], 255, np.uint8)]),
+        image.astype(np.uint16) * 257,
+    ):
+        tracker.reset()
+        result = tracker.track(variant)
+        assert result is not None
+        assert nme(result.points, imm_test[2].points, imm_fit_model.aam.scheme) < 0.1
+
+
+def test_bad_starts_give_clear_results(imm_fit_model, imm_test) -> None:
+    fitter = Fitter(imm_fit_model)
+    image = imm_test[0].load_image()
+    with pytest.raises(ValueError, match="box"):
+        fitter.fit_box(image, [10, 10, 0, 0])
+    with pytest.raises(ValueError, match="NaN"):
+        fitter.fit_shape(image, np.full((imm_fit_model.aam.scheme.n_points, 2), np.nan))
+    # A box mostly outside the image still gives a result, flagged or not, never a crash.
+    result = fitter.fit_box(image, [700, 500, 300, 300])
+    assert result.points.shape == (imm_fit_model.aam.scheme.n_points, 2)
+    # A far-off start is reported as a failed fit (eq. 7.2) rather than a face.
+    aam = imm_fit_model.aam
+    c = np.full(aam.n_appearance, 50.0) * np.sqrt(aam.combined.pca.variances)
+    _, sim = aam.shape.fit_points(imm_test[0].points)
+    fitter = Fitter(imm_fit_model, "fixed-jacobian", max_iterations=1, failure_test="eq7.2")
+    result = fitter.fit(image, c, sim)
+    assert result.failed and "3 sigma" in result.reason
+
+
+def test_unknown_algorithm(imm_fit_model) -> None:
+    with pytest.raises(ValueError, match="unknown fitting algorithm"):
+        Fitter(imm_fit_model, "newton")

@@ -1,0 +1,78 @@
+"""services.cli.run_cmd: ``aamtrack run`` option errors at start, ``aamtrack service``."""
+
+from __future__ import annotations
+
+import json
+import socket
+import subprocess
+from collections.abc import Callable
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+
+def test_service_command_runs_one_service(
+    run_cli: Callable[..., subprocess.CompletedProcess[str]],
+) -> None:
+    done = run_cli("service", "pose", "--help", timeout=60)
+    assert done.returncode == 0 and "--fov" in done.stdout and "--connect" in done.stdout
+
+
+def _model_of_another_version(model_path: Path, out: Path) -> Path:
+    with np.load(model_path, allow_pickle=False) as data:
+        arrays = {k: data[k] for k in data.files}
+    header = json.loads(arrays["header"].tobytes())
+    header["format_version"] = 1
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), np.uint8)
+    np.savez(out, **arrays)
+    return out
+
+
+def _wide_video(path: Path) -> Path:
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 10, (4200, 16))
+    for _ in range(3):
+        writer.write(np.zeros((16, 4200, 3), np.uint8))
+    writer.release()
+    return path
+
+
+def test_every_option_error_exits_2_at_start_with_one_line(
+    run_cli: Callable[..., subprocess.CompletedProcess[str]], single_face: Path,
+    model_path: Path, tmp_path: Path,
+) -> None:
+    text = tmp_path / "model.npz"
+    text.write_text("not a model\n")
+    cut = tmp_path / "cut.npz"
+    cut.write_bytes(model_path.read_bytes()[:5000])
+    old = _model_of_another_version(model_path, tmp_path / "old.npz")
+    garbage = tmp_path / "cam.yaml"
+    garbage.write_bytes(b"\x00\x01 not a calibration")
+    nan = tmp_path / "nan.json"
+    nan.write_text('{"camera_matrix": [[800, 0, 320], [0, 800, 240], [0, 0, 1]], '
+                   '"image_width": NaN, "image_height": 480}')
+    video = str(single_face)
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        busy_endpoint = f"tcp/127.0.0.1:{busy.getsockname()[1]}"
+        cases = [
+            (["--video", video, "--model", str(text)], "--model"),
+            (["--video", video, "--model", str(cut)], "--model"),
+            (["--video", video, "--model", str(old)], "model file format version 1"),
+            (["--video", video, "--calibration", str(garbage)], "--calibration"),
+            (["--video", video, "--calibration", str(nan)], "--calibration"),
+            (["--video", video, "--fov", "0"], "--fov 0.0"),
+            (["--video", video, "--jpeg", "500"], "--jpeg 500"),
+            (["--video", video, "--loop", "-1"], "--loop -1"),
+            (["--video", str(_wide_video(tmp_path / "wide.mp4"))], "exceed the frame limit"),
+            (["--video", video, "--endpoint", busy_endpoint], "--endpoint"),
+            (["--video", video, "--set", "fitter:--capacity=0"], "fitter: --capacity 0"),
+            (["--video", video, "--host", "compute"], "--host goes with --stack"),
+        ]
+        for argv, expected in cases:
+            done = run_cli("run", *argv, timeout=60)
+            assert done.returncode == 2, (argv, done.stdout, done.stderr)
+            lines = [line for line in done.stderr.splitlines() if line.strip()]
+            assert len(lines) == 1 and expected in lines[0], (argv, done.stderr)
+            assert "Traceback" not in done.stdout + done.stderr

