@@ -53,13 +53,12 @@ from aamcore.detection.haar import HaarFaceDetector
 from aamcore.evaluation.fits import haar_box
 from aamcore.evaluation.metrics import nme, summarise
 from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
 from aamcore.fitting.training.prepare import train_fitting_model
 from aamcore.io import FaceSample, load_annotated_folder
 from aamcore.io.landmarks import LandmarkScheme
-from aamcore.model.aam import AAM
-from aamcore.model.cache import cached_model
-from aamcore.model.file import load_model
-from aamcore.model.training import TrainConfig
+from aamcore.model.cache import cache_key, cached_file
+from aamcore.model.training import TrainConfig, train_aam
 
 RUNNER = Path(__file__).resolve().parent / "facemark_runner.py"
 REQUIREMENTS = ("opencv-contrib-python-headless>=4.10,<5", "numpy")
@@ -104,29 +103,19 @@ def split_name(train: list[FaceSample], total: int) -> str:
     return f"first {len(train)} of {total} by name ({digest[:10]})"
 
 
-def aamtrack_model(train: list[FaceSample], total: int) -> AAM:
+def aamtrack_model(train: list[FaceSample], total: int) -> FittingModel:
     """aamtrack's model on the train split, trained once and cached."""
+    folder = resolve_dataset("lfpw")
+    key = cache_key(str(folder), AAMTRACK_CONFIG, {"select": split_name(train, total),
+                                                  "prepare": f"{UPDATE_IMAGES} images"})
 
-    def select(samples: list[FaceSample]) -> list[FaceSample]:
-        chosen = {s.image_path.name for s in train}
-        return [
-            s
-            for s in sorted(samples, key=lambda s: s.image_path.name)
-            if s.image_path.name in chosen
-        ]
+    def build(path: Path) -> Path:
+        samples = sorted(train, key=lambda s: s.image_path.name)
+        aam = train_aam(samples, load_annotated_folder(folder).scheme, AAMTRACK_CONFIG)
+        return train_fitting_model(aam, samples, max_images=UPDATE_IMAGES).save(path)
 
-    def prepare(aam: AAM, samples: list[FaceSample]) -> AAM:
-        return train_fitting_model(aam, samples, max_images=UPDATE_IMAGES)
-
-    path = cached_model(
-        "lfpw",
-        AAMTRACK_CONFIG,
-        select=select,
-        select_name=split_name(train, total),
-        prepare=prepare,
-        prepare_name=f"fitting v3, {UPDATE_IMAGES} images",
-    )
-    return load_model(path)
+    return FittingModel.load(cached_file(cache_dir() / f"facemark-{key}.npz", build,
+                                         FittingModel.load))
 
 
 def haar_boxes(detector: HaarFaceDetector, samples: list[FaceSample]) -> list[np.ndarray | None]:
@@ -209,14 +198,14 @@ def opencv_model(
 
 
 def fit_aamtrack(
-    aam: AAM,
+    model: FittingModel,
     algorithm: str,
     samples: list[FaceSample],
     boxes: list[np.ndarray],
     scheme: LandmarkScheme,
 ) -> MethodResult:
     """Fit every sample from its box with aamtrack's ``algorithm``."""
-    fitter = Fitter(aam, algorithm)
+    fitter = Fitter(model, algorithm)
     errors, starts, seconds = [], [], []
     for sample, box in zip(samples, boxes, strict=True):
         image = sample.load_image()
@@ -324,15 +313,15 @@ def main(argv: list[str] | None = None) -> int:
     total = len(train) + len(test)
     test = test[: args.limit] if args.limit else test
     detector = HaarFaceDetector()
-    aam = aamtrack_model(train, total)
+    ours_model = aamtrack_model(train, total)
     python = facemark_python(cache_dir() / "facemark-venv")
-    pixels = args.opencv_pixels or aam.frame.n_pixels
+    pixels = args.opencv_pixels or ours_model.aam.frame.n_pixels
     model = opencv_model(python, train, total, pixels, detector)
 
     found = [(s, b) for s, b in zip(test, haar_boxes(detector, test), strict=True) if b is not None]
     samples, boxes = [s for s, _ in found], [b for _, b in found]
     with threadpool_limits(limits=1):
-        ours = [fit_aamtrack(aam, a, samples, boxes, scheme) for a in ALGORITHMS]
+        ours = [fit_aamtrack(ours_model, a, samples, boxes, scheme) for a in ALGORITHMS]
     theirs = fit_opencv(python, model, samples, boxes, scheme)
 
     print(
@@ -341,8 +330,8 @@ def main(argv: list[str] | None = None) -> int:
         f"(skipped), fitted {len(samples)}; one thread"
     )
     print(
-        f"aamtrack: grey, {aam.frame.n_pixels} reference px, {aam.shape.n_modes} shape / "
-        f"{aam.n_appearance} appearance modes"
+        f"aamtrack: grey, {ours_model.aam.frame.n_pixels} reference px, "
+        f"{ours_model.aam.shape.n_modes} shape / {ours_model.aam.n_appearance} appearance modes"
     )
     cached = "cached" if model["cached"] else f"trained in {model['train_seconds']:.0f} s"
     print(

@@ -21,19 +21,19 @@ from aamcore.evaluation.fits import haar_box
 from aamcore.evaluation.metrics import nme
 from aamcore.fitting.failure import FAILURE_TESTS
 from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
 from aamcore.fitting.tracker import Tracker
 from aamcore.fitting.training.prepare import default_model_path
 from aamcore.io import load_annotated_folder
 from aamcore.io.video import video_frames
-from aamcore.model.file import load_model
 
 
 def lfpw_table() -> None:
     data = load_annotated_folder(resolve_dataset("lfpw"))
     cut = int(0.8 * len(data.samples))
-    aam = split_model(data.samples[:cut], data.scheme)
+    model = split_model(data.samples[:cut], data.scheme)
     detector = HaarFaceDetector()
-    fitters = {kind: Fitter(aam, failure_test=kind) for kind in FAILURE_TESTS}
+    fitters = {kind: Fitter(model, failure_test=kind) for kind in FAILURE_TESTS}
     flags = {kind: [] for kind in FAILURE_TESTS}
     bad = []
     for sample in data.samples[cut:]:
@@ -56,12 +56,12 @@ def lfpw_table() -> None:
 
 def video_table() -> None:
     frames = video_frames(data_root() / "videos" / "single_face.mp4")
-    aam = load_model(default_model_path())
+    model = FittingModel.load(default_model_path())
     print(f"\nsingle_face.mp4, {len(frames)} frames tracked with the stack's model")
     print(f"{'algorithm':<20}{'test':<8}{'flagged':>9}{'detections':>12}")
     for algorithm in ("supervised-descent", "fixed-jacobian"):
         for kind in FAILURE_TESTS:
-            tracker = Tracker(Fitter(aam, algorithm, failure_test=kind))
+            tracker = Tracker(Fitter(model, algorithm, failure_test=kind))
             flagged = sum(r is not None and r.failed for r in map(tracker.track, frames))
             print(f"{algorithm:<20}{kind:<8}{flagged:>9}{tracker.detections:>12}")
 

@@ -44,8 +44,10 @@ import msgpack
 import numpy as np
 
 from aamcore.config import data_root
-from services.bus.runtime import BusOptions, Service, alive_services
-from services.stack.launcher import Stack, StackOptions, free_port
+from services.bus.connection import BusOptions
+from services.bus.session import Service
+from services.stack.launcher import Stack, free_port, prepared
+from services.stack.options import StackOptions, parse_run_args
 
 MODEL_LIMIT = 120
 MODEL_IMAGES = 10
@@ -84,20 +86,19 @@ class Observer:
 
 
 def options(video: Path, warp: str, **kw: Any) -> StackOptions:
-    return StackOptions(video=str(video), model_limit=MODEL_LIMIT, model_images=MODEL_IMAGES,
-                        warp=warp, endpoint=f"tcp/127.0.0.1:{free_port()}", stream="bench",
-                        drain_max=10.0, **kw)
+    argv = ["--video", str(video), "--model-limit", str(MODEL_LIMIT), "--model-images",
+            str(MODEL_IMAGES), "--warp", warp, "--endpoint", f"tcp/127.0.0.1:{free_port()}",
+            "--stream", "bench", "--drain-max", "10"]
+    for name, value in kw.items():
+        argv += ["--" + name.replace("_", "-"), str(value)]
+    return prepared(parse_run_args(argv))
 
 
-def wait_alive(session: Any, stream: str, names: set[str], timeout: float) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if names <= alive_services(session, stream, timeout=0.2):
-            return True
-    return False
+def wait_alive(probe: Service, names: set[str], timeout: float) -> bool:
+    return not probe.wait_for_alive(names, timeout)
 
 
-def recover(stack: Stack, session: Any, name: str, timeout: float = 15.0) -> float:
+def recover(stack: Stack, probe: Service, name: str, timeout: float = 15.0) -> float:
     """Kill ``name`` with SIGKILL; seconds until a new process of it holds its token."""
     sup = stack.supervisor
     old = sup.pid(name)
@@ -106,7 +107,7 @@ def recover(stack: Stack, session: Any, name: str, timeout: float = 15.0) -> flo
     os.kill(old, signal.SIGKILL)
     while time.monotonic() - killed_at < timeout:
         pid = sup.pid(name)
-        if pid is not None and pid != old and name in alive_services(session, "bench", 0.2):
+        if pid is not None and pid != old and name in probe.alive():
             return time.monotonic() - killed_at
         time.sleep(0.01)
     return float("nan")
@@ -124,11 +125,11 @@ def kill_each(video: Path, warp: str) -> tuple[list[dict[str, Any]], dict[str, A
                 probe.subscribe(probe.key(kind), observer.on_sample)
             waiter = threading.Thread(target=stack.wait, daemon=True)
             waiter.start()  # it also runs the supervisor's restarts
-            assert wait_alive(probe.session, "bench", set(KILLED), 120), "stack did not start"
+            assert wait_alive(probe, set(KILLED), 120), "stack did not start"
             time.sleep(4.0)  # warm up: tracking established
             for name in KILLED:
                 killed_at = time.monotonic()
-                took = recover(stack, probe.session, name)
+                took = recover(stack, probe, name)
                 back_at = time.monotonic()
                 time.sleep(3.0)  # let the stage answer the frames it still holds
                 frames = observer.frames_between(killed_at, back_at)

@@ -54,8 +54,7 @@ def main() -> None:
         train = [s for s in data.samples if s.subject not in held]
         test = [s for s in data.samples if s.subject in held]
         aam = train_aam(train, data.scheme, TrainConfig(colour=False, shape_variance=0.98))
-        aam = train_fitting_model(aam, train)
-        fitter = Fitter(aam, args.algorithm)
+        fitter = Fitter(train_fitting_model(aam, train), args.algorithm)
         records += monte_carlo(fitter, test, offsets)
         print(f"fold {sorted(held)}: {len(test)} images done", flush=True)
     elapsed = time.perf_counter() - start

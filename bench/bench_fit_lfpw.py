@@ -20,9 +20,10 @@ from aamcore.evaluation.fits import landmark_errors, summary
 from aamcore.evaluation.plots import save_ced_png
 from aamcore.fitting.algorithm import ALGORITHMS
 from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
 from aamcore.fitting.training.prepare import train_fitting_model
 from aamcore.io import load_annotated_folder
-from aamcore.model.file import ModelFileError, load_model, save_model
+from aamcore.model.file import ModelFileError
 from aamcore.model.training import TrainConfig, train_aam
 
 MODEL = "lfpw-split80-bench-v1.npz"
@@ -32,15 +33,15 @@ def split_model(train, scheme):
     """The benchmark's model, cached outside the repository."""
     path = cache_dir() / MODEL
     try:
-        return load_model(path)
+        return FittingModel.load(path)
     except ModelFileError:
         pass
     start = time.perf_counter()
     aam = train_aam(train, scheme, TrainConfig(colour=False, shape_variance=0.98))
-    aam = train_fitting_model(aam, train, max_images=30)
-    save_model(aam, path)
+    model = train_fitting_model(aam, train, max_images=30)
+    model.save(path)
     print(f"trained and cached {path} in {time.perf_counter() - start:.0f} s")
-    return aam
+    return model
 
 
 def main() -> None:
@@ -51,7 +52,8 @@ def main() -> None:
     data = load_annotated_folder(resolve_dataset("lfpw"))
     cut = int(0.8 * len(data.samples))
     train, test = data.samples[:cut], data.samples[cut:]
-    aam = split_model(train, data.scheme)
+    model = split_model(train, data.scheme)
+    aam = model.aam
     print(
         f"LFPW: {len(train)} training, {len(test)} test images; model t_s={aam.shape.n_modes} "
         f"t_g={aam.texture.n_modes} t_c={aam.n_appearance}, {aam.frame.n_pixels} px grey\n"
@@ -59,7 +61,7 @@ def main() -> None:
     print(f"{'algorithm':<44}{'NME mean':>9}{'median':>8}{'>0.08':>7}{'>0.10':>7}{'ms/fit':>8}")
     curves, best = {}, None
     for name in args.algorithms.split(","):
-        fitter = Fitter(aam, name)
+        fitter = Fitter(model, name)
         records = landmark_errors(fitter, test)
         s = summary(records)
         curves[fitter.name] = [r.nme for r in records]

@@ -24,9 +24,9 @@ from aamcore.config import data_root  # noqa: E402
 from aamcore.detection.haar import HaarFaceDetector  # noqa: E402
 from aamcore.fitting.algorithm import ALGORITHMS
 from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel  # noqa: E402
 from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
 from aamcore.io.video import video_frames  # noqa: E402
-from aamcore.model.file import load_model  # noqa: E402
 
 
 def letterbox(frame: np.ndarray, size: tuple[int, int] = (640, 480)) -> np.ndarray:
@@ -49,7 +49,8 @@ def rate(seconds: list[float]) -> tuple[float, float]:
 def main() -> None:
     cv2.setNumThreads(1)
     frames = [letterbox(f) for f in video_frames(data_root() / "videos" / "single_face.mp4")]
-    aam = load_model(default_model_path())
+    model = FittingModel.load(default_model_path())
+    aam = model.aam
     detector = HaarFaceDetector()
     det_times, boxes = [], []
     for frame in frames:
@@ -66,7 +67,7 @@ def main() -> None:
     results = {}
     with threadpool_limits(1):
         for name in ALGORITHMS:
-            fitter = Fitter(aam, name)
+            fitter = Fitter(model, name)
             box_times, track_times, iterations = [], [], []
             previous = None
             for frame, box in zip(frames, boxes, strict=True):

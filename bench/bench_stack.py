@@ -33,7 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from aamcore.config import data_root
-from services.stack.launcher import Stack, StackOptions
+from services.stack.launcher import Stack, prepared
+from services.stack.options import StackOptions, parse_run_args
 from services.stack.recorder import load_messages
 
 TARGET_FPS = 30.0
@@ -49,6 +50,7 @@ def cpu_seconds(pid: int) -> float:
 
 @dataclass
 class RunResult:
+    opts: StackOptions
     summary: dict
     messages: list
     cpu: dict[str, float]
@@ -57,6 +59,7 @@ class RunResult:
 
 def run(opts: StackOptions, rec: Path) -> RunResult:
     """Run a stack and measure the CPU of each process until end of stream."""
+    opts = prepared(opts)
     with Stack(opts) as stack:
         pids = {}
         deadline = time.monotonic() + 120
@@ -86,7 +89,7 @@ def run(opts: StackOptions, rec: Path) -> RunResult:
         cpu["launcher"] = time.process_time() - start_self
     if outcome != "done":
         sys.exit(f"the stack did not finish: {outcome}")
-    return RunResult(stack.summary(), load_messages(rec), cpu, wall)
+    return RunResult(opts, stack.summary(), load_messages(rec), cpu, wall)
 
 
 def by_kind(messages: list, kind: str) -> dict[int, object]:
@@ -137,26 +140,29 @@ def main(argv: list[str] | None = None) -> int:
                         help="the small test model (120 images) instead of the full LFPW one")
     parser.add_argument("--no-ar", action="store_true", help="leave the glasses renderer out")
     parser.add_argument("--rerun", action="store_true", help="add the Rerun logger (.rrd)")
+    parser.add_argument("--algorithm", help="the fitter's algorithm (default: the stack's)")
     args = parser.parse_args(argv)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     video = data_root() / "videos" / "single_face.mp4"
     with tempfile.TemporaryDirectory() as tmp:
-        common = dict(video=str(video), warp=args.warp, ar=not args.no_ar,
-                      model_limit=120 if args.small_model else 0,
-                      model_images=10 if args.small_model else 30)
+        common = ["--video", str(video), "--warp", args.warp,
+                  *(["--no-ar"] if args.no_ar else []),
+                  *(["--algorithm", args.algorithm] if args.algorithm else []),
+                  *(["--model-limit", "120", "--model-images", "10"] if args.small_model else [])]
         rec = Path(tmp) / "fast.rec"
-        fast = run(StackOptions(pace="fast", loop=args.loops, record=str(rec),
-                                rrd=str(Path(tmp) / "run.rrd") if args.rerun else None,
-                                **common), rec)
+        rrd = ["--rrd", str(Path(tmp) / "run.rrd")] if args.rerun else []
+        fast = run(parse_run_args([*common, "--pace", "fast", "--loop", str(args.loops),
+                                   "--record", str(rec), *rrd]), rec)
         rec = Path(tmp) / "realtime.rec"
-        slow = run(StackOptions(pace="realtime", loop=args.latency_loops, record=str(rec),
-                                **common), rec)
+        slow = run(parse_run_args([*common, "--pace", "realtime", "--loop",
+                                   str(args.latency_loops), "--record", str(rec)]), rec)
     fps, complete, note = throughput(fast)
     lat = np.array([(m.header.publish_time_ns - m.header.capture_time_ns) / 1e6
                     for m in slow.messages if m.KIND == "pose"])
     p50, p99 = np.percentile(lat, [50, 99])
     fitter_drop = slow.summary["services"]["fitter"]["dropped"]
-    print(f"stack: detector, fitter ({args.warp} warp), pose, expression"
+    algorithm = fast.opts.services["fitter"].algorithm
+    print(f"stack: detector, fitter ({algorithm}, {args.warp} warp), pose, expression"
           f"{'' if args.no_ar else ', ar'}{', rerun' if args.rerun else ''}, source; "
           f"{os.cpu_count()} cores; model {'small' if args.small_model else 'full LFPW'}")
     print(f"\nthroughput, fastest pacing, {args.loops} plays: {fps:.1f} frames/s; {note}")

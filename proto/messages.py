@@ -5,209 +5,27 @@ Each kind declares its body fields with a spec (:mod:`proto.fields`,
 ``to_dict`` / ``from_dict`` convert the body to and from its msgpack map
 (fields in declaration order). Arrays are read-only when decoded; arrays given
 to a constructor are converted to the wire dtype, copied only when needed.
+The image kinds, ``Frame`` and ``Overlay``, are defined in :mod:`proto.images`
+and re-exported here.
 """
 
 from __future__ import annotations
 
-import functools
 import math
-from dataclasses import dataclass, field, fields
-from typing import Any, ClassVar, Self
+from dataclasses import dataclass
+from typing import ClassVar
 
-import msgpack
 import numpy as np
 
-from proto.arrays import ArraySpec
-from proto.fields import Bool, Float, Int, Spec, Str, StrList, check_keys, type_name
-from proto.header import Header
-from proto.keys import check_name, status_key, topic_key
-from proto.limits import (
-    MAX_IMAGE_BYTES,
-    MAX_IMAGE_HEIGHT,
-    MAX_IMAGE_PIXELS,
-    MAX_IMAGE_WIDTH,
-    MAX_SMALL_ARRAY_BYTES,
-    ProtoError,
-)
+from proto.fields import Bool, Float, Str, StrList
+from proto.images import Frame, Overlay
+from proto.keys import check_name, status_key
+from proto.limits import ProtoError
+from proto.message import COUNT, HEIGHT, NAME, WIDTH, Message, small, spec
 
-ENCODINGS = ("raw", "jpeg")
 WARP_PATHS = ("gpu", "cpu")
 STATES = ("starting", "running", "waiting", "degraded", "stopping", "stopped", "failed")
 """Service states of ``Status.state``."""
-JPEG_MAGIC = b"\xff\xd8\xff"
-
-
-def spec(s: Spec) -> Any:
-    """Declare a required body field validated by ``s``."""
-    return field(metadata={"spec": s})
-
-
-def small(dtype: str, *shape: int | None) -> Any:
-    """Declare a small array field (at most ``MAX_SMALL_ARRAY_BYTES``, no NaN)."""
-    return spec(ArraySpec(dtype, shape, MAX_SMALL_ARRAY_BYTES))
-
-
-WIDTH = Int(1, MAX_IMAGE_WIDTH)
-HEIGHT = Int(1, MAX_IMAGE_HEIGHT)
-COUNT = Int()
-NAME = Str(min_len=1)
-
-
-@dataclass(frozen=True, eq=False)
-class Message:
-    """Base of every message kind: a header and the body fields of the subclass."""
-
-    KIND: ClassVar[str] = ""
-    header: Header
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.header, Header):
-            raise ProtoError(f"{self.KIND}.header: expected a Header, got {type_name(self.header)}")
-        for name, s in self.specs().items():
-            object.__setattr__(self, name, s.check(getattr(self, name), f"{self.KIND}.{name}"))
-        self._check()
-
-    def _check(self) -> None:
-        """Rules that tie fields together; raise ``ProtoError``. Overridden by kinds."""
-
-    @classmethod
-    @functools.cache
-    def specs(cls) -> dict[str, Spec]:
-        """Body field name -> spec, in wire order."""
-        return {f.name: f.metadata["spec"] for f in fields(cls) if "spec" in f.metadata}
-
-    def key(self) -> str:
-        """The Zenoh key this message is published on."""
-        return topic_key(self.header.stream_id, self.KIND)
-
-    def to_dict(self) -> dict[str, Any]:
-        """The body as a msgpack-ready map (arrays as ``{"dtype", "shape", "data"}``)."""
-        return {name: s.encode(getattr(self, name)) for name, s in self.specs().items()}
-
-    @classmethod
-    def from_dict(cls, body: Any, header: Header) -> Self:
-        """Validate an unpacked body map and build the message.
-
-        Raises
-        ------
-        ProtoError
-            Naming the first field that does not fit.
-        """
-        if not isinstance(header, Header):
-            raise ProtoError(f"{cls.KIND}.header: expected a Header, got {type_name(header)}")
-        specs = cls.specs()
-        check_keys(body, specs, cls.KIND)
-        msg = object.__new__(cls)
-        object.__setattr__(msg, "header", header)
-        for name, s in specs.items():
-            object.__setattr__(msg, name, s.decode(body[name], f"{cls.KIND}.{name}"))
-        msg._check()
-        return msg
-
-    def __eq__(self, other: object) -> bool:
-        # Wire equality: arrays compare by bytes, and a NaN equals itself.
-        if type(other) is not type(self):
-            return NotImplemented
-        pack = functools.partial(msgpack.packb, use_bin_type=True)
-        return self.header == other.header and pack(self.to_dict()) == pack(other.to_dict())
-
-    __hash__ = None  # type: ignore[assignment]
-
-
-@dataclass(frozen=True)
-class ImageSpec:
-    """An image: a ``uint8`` array ``(H, W, 3)`` or ``(H, W)``, or JPEG bytes."""
-
-    max_bytes: int = MAX_IMAGE_BYTES
-
-    def _array_spec(self, ndim: int) -> ArraySpec:
-        return ArraySpec("u1", (None, None, 3) if ndim == 3 else (None, None), self.max_bytes)
-
-    def _check_jpeg(self, data: bytes, name: str) -> bytes:
-        if len(data) > self.max_bytes:
-            raise ProtoError(f"{name}: {len(data)} bytes exceed the limit of {self.max_bytes}")
-        if not data.startswith(JPEG_MAGIC):
-            raise ProtoError(f"{name}: JPEG data must start with FF D8 FF")
-        return data
-
-    def check(self, value: Any, name: str) -> np.ndarray | bytes:
-        if isinstance(value, bytes):
-            return self._check_jpeg(value, name)
-        ndim = value.ndim if isinstance(value, np.ndarray) else 2
-        return self._array_spec(ndim).check(value, name)
-
-    def encode(self, value: np.ndarray | bytes) -> Any:
-        return value if isinstance(value, bytes) else self._array_spec(value.ndim).encode(value)
-
-    def decode(self, obj: Any, name: str) -> np.ndarray | bytes:
-        if isinstance(obj, bytes):
-            return self._check_jpeg(obj, name)
-        shape = obj.get("shape") if isinstance(obj, dict) else None
-        ndim = len(shape) if isinstance(shape, list) else 2
-        return self._array_spec(ndim).decode(obj, name)
-
-
-@dataclass(frozen=True, eq=False)
-class _ImageMessage(Message):
-    """A frame-sized image, raw or JPEG; base of ``Frame`` and ``Overlay``.
-
-    Parameters
-    ----------
-    encoding : str
-        ``"raw"``: ``image`` is a ``uint8`` array ``(height, width, 3)`` (BGR)
-        or ``(height, width)`` (grey); ``"jpeg"``: ``image`` is JPEG bytes.
-    width, height : int
-        Image size in pixels (at most 4096 each and 4096 x 2160 in all).
-    image : numpy.ndarray or bytes
-        The pixels.
-    """
-
-    encoding: str = spec(Str(choices=ENCODINGS))
-    width: int = spec(WIDTH)
-    height: int = spec(HEIGHT)
-    image: np.ndarray | bytes = spec(ImageSpec())
-
-    def _check(self) -> None:
-        if self.width * self.height > MAX_IMAGE_PIXELS:
-            raise ProtoError(
-                f"{self.KIND}: {self.width} x {self.height} exceeds {MAX_IMAGE_PIXELS} pixels"
-            )
-        is_raw = isinstance(self.image, np.ndarray)
-        if is_raw != (self.encoding == "raw"):
-            held = "an array" if is_raw else "bytes"
-            raise ProtoError(f"{self.KIND}.image: encoding {self.encoding!r} but image is {held}")
-        if is_raw and self.image.shape[:2] != (self.height, self.width):
-            raise ProtoError(
-                f"{self.KIND}.image: shape {list(self.image.shape)} does not match "
-                f"height {self.height}, width {self.width}"
-            )
-
-    @classmethod
-    def from_array(cls, header: Header, image: np.ndarray) -> Self:
-        """A raw message from a ``uint8`` image ``(H, W, 3)`` or ``(H, W)``."""
-        if not isinstance(image, np.ndarray) or image.ndim not in (2, 3):
-            raise ProtoError(f"{cls.KIND}.image: expected a 2-D or 3-D array")
-        height, width = image.shape[:2]
-        return cls(header, "raw", width, height, image)
-
-    @classmethod
-    def from_jpeg(cls, header: Header, data: bytes, width: int, height: int) -> Self:
-        """A JPEG message; ``width`` and ``height`` are those of the encoded image."""
-        return cls(header, "jpeg", width, height, data)
-
-
-@dataclass(frozen=True, eq=False)
-class Frame(_ImageMessage):
-    """A captured video frame (see ``_ImageMessage`` for the fields)."""
-
-    KIND: ClassVar[str] = "frame"
-
-
-@dataclass(frozen=True, eq=False)
-class Overlay(_ImageMessage):
-    """A frame with the tracking result drawn on it (see ``_ImageMessage``)."""
-
-    KIND: ClassVar[str] = "overlay"
 
 
 @dataclass(frozen=True, eq=False)

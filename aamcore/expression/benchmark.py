@@ -224,6 +224,38 @@ def time_classifiers(
     return timings
 
 
+def _evaluate(
+    data: PixelData,
+    variances: Sequence[float],
+    class_counts: Sequence[int],
+    classifiers: Sequence[ClassifierSpec],
+    progress: Callable[[str], None] | None,
+) -> dict[int, dict[float, list[EvaluationResult]]]:
+    """Leave-one-poser-out results per class count and kept variance.
+
+    ``progress``, when given, is called with a line of text after each variance.
+    """
+    results: dict[int, dict[float, list[EvaluationResult]]] = {}
+    for n in class_counts:
+        subset = data.subset(restrict_classes(data.labels, CLASS_SETS[n]))
+        results[n] = {}
+        for variance in variances:
+            results[n][variance] = leave_one_poser_out(
+                subset.pixels,
+                subset.labels,
+                subset.posers,
+                features=data.make_features(variance),
+                classifiers=classifiers,
+                class_names=CLASS_SETS[n],
+            )
+            if progress is not None:
+                rates = ", ".join(
+                    f"{r.classifier} {100 * r.overall_rate:.1f}%" for r in results[n][variance]
+                )
+                progress(f"{n} classes, {100 * variance:g}% variance: {rates}")
+    return results
+
+
 def run_expression_benchmark(
     variances: Sequence[float] = VARIANCES,
     class_counts: Sequence[int] = (7, 5),
@@ -262,24 +294,7 @@ def run_expression_benchmark(
     if unknown:
         raise ValueError(f"class counts {unknown} unknown (expected some of {list(CLASS_SETS)})")
     data = data if data is not None else load_pixel_data(folder)
-    results: dict[int, dict[float, list[EvaluationResult]]] = {}
-    for n in class_counts:
-        subset = data.subset(restrict_classes(data.labels, CLASS_SETS[n]))
-        results[n] = {}
-        for variance in variances:
-            results[n][variance] = leave_one_poser_out(
-                subset.pixels,
-                subset.labels,
-                subset.posers,
-                features=data.make_features(variance),
-                classifiers=classifiers,
-                class_names=CLASS_SETS[n],
-            )
-            if progress is not None:
-                rates = ", ".join(
-                    f"{r.classifier} {100 * r.overall_rate:.1f}%" for r in results[n][variance]
-                )
-                progress(f"{n} classes, {100 * variance:g}% variance: {rates}")
+    results = _evaluate(data, variances, class_counts, classifiers, progress)
     bench = ExpressionBenchmark(results, {}, data.skipped, data.features_name)
     best_variance = bench.best(max(class_counts))[0]
     bench.classify_ms = time_classifiers(data, best_variance, classifiers)

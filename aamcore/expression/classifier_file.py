@@ -26,6 +26,7 @@ import numpy as np
 
 from aamcore.expression.lda import FisherMahalanobis, MahalanobisModel
 from aamcore.expression.svm import SVMExpressionClassifier, SVMModel
+from aamcore.io.versioned import checked_header
 
 FORMAT_NAME = "aamtrack-expression-classifier"
 FORMAT_VERSION = 1
@@ -221,20 +222,8 @@ class ExpressionClassifier:
 
 def _read_header(path: Path, raw: np.ndarray | None) -> dict[str, Any]:
     """Decode and check the JSON header of a classifier file."""
-    if raw is None:
-        raise ClassifierFileError(f"{path}: no '{_HEADER}' entry, not an expression classifier")
-    try:
-        header = json.loads(raw.tobytes().decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ClassifierFileError(f"{path}: header is not JSON ({exc})") from exc
-    if not isinstance(header, dict) or header.get("format") != FORMAT_NAME:
-        raise ClassifierFileError(f"{path}: not an {FORMAT_NAME} file")
-    version = header.get("format_version")
-    if version != FORMAT_VERSION:
-        raise ClassifierFileError(
-            f"{path}: classifier file format version {version}, this aamtrack reads version "
-            f"{FORMAT_VERSION}: retrain or convert the classifier"
-        )
+    header = checked_header(path, raw, FORMAT_NAME, FORMAT_VERSION, "classifier",
+                            "retrain or convert the classifier", ClassifierFileError)
     missing = {"kind", "class_names", "feature_dim", "aam_fingerprint", "info"} - set(header)
     if missing:
         raise ClassifierFileError(f"{path}: header lacks {', '.join(sorted(missing))}")

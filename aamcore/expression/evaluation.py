@@ -206,6 +206,42 @@ def _check_inputs(
         raise ValueError("leave-one-poser-out needs at least 2 posers")
 
 
+def _run_folds(
+    inputs: Inputs,
+    labels: np.ndarray,
+    groups: np.ndarray,
+    features: FoldFeatures,
+    classifiers: Sequence[ClassifierSpec],
+    progress: Callable[[str], None] | None,
+) -> tuple[dict[str, np.ndarray], dict[str, dict[str, dict[str, Any]]]]:
+    """Fit and predict every fold of :func:`leave_one_poser_out`.
+
+    Returns
+    -------
+    predicted : dict
+        Classifier name -> predicted labels (n,), each from the fold that held its poser out.
+    params : dict
+        Classifier name -> poser -> the fold's scalar estimator parameters and ``n_features``.
+    """
+    predicted = {spec.name: np.empty(len(labels), dtype=labels.dtype) for spec in classifiers}
+    params: dict[str, dict[str, dict[str, Any]]] = {spec.name: {} for spec in classifiers}
+    # The problems are small: parallel BLAS threads only add overhead on them.
+    with threadpool_limits(limits=1):
+        for poser in np.unique(groups):
+            test = np.flatnonzero(groups == poser)
+            train = np.flatnonzero(groups != poser)
+            transform = features.fit(take(inputs, train))
+            X_train, X_test = transform(take(inputs, train)), transform(take(inputs, test))
+            for spec in classifiers:
+                estimator = spec.fit(X_train, labels[train], groups[train])
+                predicted[spec.name][test] = estimator.predict(X_test)
+                fold = _scalar_params(estimator) | {"n_features": int(X_train.shape[1])}
+                params[spec.name][str(poser)] = fold
+            if progress is not None:
+                progress(f"{features.name}: poser {poser} done ({len(test)} test samples)")
+    return predicted, params
+
+
 def leave_one_poser_out(
     inputs: Inputs,
     labels: np.ndarray,
@@ -247,22 +283,7 @@ def leave_one_poser_out(
     names = tuple(class_names) if class_names is not None else tuple(np.unique(labels))
     _check_inputs(inputs, labels, groups, names)
 
-    predicted = {spec.name: np.empty(len(labels), dtype=labels.dtype) for spec in classifiers}
-    params: dict[str, dict[str, dict[str, Any]]] = {spec.name: {} for spec in classifiers}
-    # The problems are small: parallel BLAS threads only add overhead on them.
-    with threadpool_limits(limits=1):
-        for poser in np.unique(groups):
-            test = np.flatnonzero(groups == poser)
-            train = np.flatnonzero(groups != poser)
-            transform = features.fit(take(inputs, train))
-            X_train, X_test = transform(take(inputs, train)), transform(take(inputs, test))
-            for spec in classifiers:
-                estimator = spec.fit(X_train, labels[train], groups[train])
-                predicted[spec.name][test] = estimator.predict(X_test)
-                fold = _scalar_params(estimator) | {"n_features": int(X_train.shape[1])}
-                params[spec.name][str(poser)] = fold
-            if progress is not None:
-                progress(f"{features.name}: poser {poser} done ({len(test)} test samples)")
+    predicted, params = _run_folds(inputs, labels, groups, features, classifiers, progress)
     return [
         EvaluationResult(
             spec.name, features.name, names, labels, predicted[spec.name], groups, params[spec.name]

@@ -65,6 +65,34 @@ def _image_size(path: Path) -> tuple[int, int]:
     return image.shape[1], image.shape[0]
 
 
+def _read_annotation(path: Path) -> tuple[FaceSample, tuple[np.ndarray, np.ndarray] | None]:
+    """One ``.asf`` or ``.pts`` annotation as a sample.
+
+    Returns
+    -------
+    sample : FaceSample
+    topology : tuple of arrays or None
+        The ``(paths, connects_to)`` of an ``.asf`` markup; None for ``.pts``.
+
+    Raises
+    ------
+    DatasetError
+        If the annotation or its image cannot be read.
+    """
+    topology = None
+    if path.suffix == ".asf":
+        shape = read_asf(path)
+        image_path = path.parent / shape.image_name
+        if not image_path.is_file():
+            image_path = _image_for(path)
+        points = shape.pixels(*_image_size(image_path))
+        topology = (shape.paths, shape.connects_to)
+    else:
+        points = read_pts(path)
+        image_path = _image_for(path)
+    return FaceSample(image_path, points, _subject_from_name(path.stem)), topology
+
+
 def load_annotated_folder(folder: str | Path, limit: int | None = None) -> AnnotatedSet:
     """Read every ``.asf`` or ``.pts`` annotation of ``folder`` with its image.
 
@@ -97,21 +125,13 @@ def load_annotated_folder(folder: str | Path, limit: int | None = None) -> Annot
     topology: tuple[np.ndarray, np.ndarray] | None = None
     for path in files:
         try:
-            if path.suffix == ".asf":
-                shape = read_asf(path)
-                image_path = path.parent / shape.image_name
-                if not image_path.is_file():
-                    image_path = _image_for(path)
-                points = shape.pixels(*_image_size(image_path))
-                if topology is None:
-                    topology = (shape.paths, shape.connects_to)
-            else:
-                points = read_pts(path)
-                image_path = _image_for(path)
+            sample, paths = _read_annotation(path)
         except DatasetError as exc:
             errors.append(str(exc))
             continue
-        samples.append(FaceSample(image_path, points, _subject_from_name(path.stem)))
+        samples.append(sample)
+        if topology is None:
+            topology = paths
 
     if not samples:
         raise DatasetError(f"{root}: no readable annotated image ({len(errors)} files failed)")

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from aamcore.io.landmarks import LandmarkScheme
+from aamcore.io.versioned import checked_header
 from aamcore.model.aam import AAM
 from aamcore.model.combined import CombinedModel
 from aamcore.model.pca import PCA
@@ -141,21 +142,12 @@ def _open(path: Path) -> Any:
 
 
 def _checked_header(path: Path, data: Any) -> dict[str, Any]:
-    if "header" not in data.files:
-        raise ModelFileError(f"{path}: no header: not an aamtrack model file")
     try:
-        header = json.loads(data["header"].tobytes().decode())
-    except (ValueError, UnicodeDecodeError) as exc:
+        raw = data["header"] if "header" in data.files else None
+    except ValueError as exc:  # an object array: refused without unpickling
         raise ModelFileError(f"{path}: corrupt header ({exc})") from exc
-    if not isinstance(header, dict) or header.get("format") != FORMAT:
-        raise ModelFileError(f"{path}: not an aamtrack model file")
-    version = header.get("format_version")
-    if version != FORMAT_VERSION:
-        raise ModelFileError(
-            f"{path}: model file format version {version}, this aamtrack reads version "
-            f"{FORMAT_VERSION}: retrain the model with `aamtrack train`"
-        )
-    return header
+    return checked_header(path, raw, FORMAT, FORMAT_VERSION, "model",
+                          "retrain the model with `aamtrack train`", ModelFileError)
 
 
 def load_model(path: str | Path) -> AAM:

@@ -56,34 +56,7 @@ def _check_rank(name: str, n_modes: int, n_images: int, variance: float) -> None
         )
 
 
-def train_aam(
-    samples: list[FaceSample],
-    scheme: LandmarkScheme,
-    config: TrainConfig = TrainConfig(),
-    progress: Callable[[Iterable[FaceSample]], Iterable[FaceSample]] | None = None,
-    source: str = "",
-) -> AAM:
-    """Build shape, texture and combined models from ``samples``.
-
-    Images that cannot be read are reported in ``summary["skipped"]`` and left
-    out; training goes on while at least :data:`MIN_IMAGES` remain.
-
-    Parameters
-    ----------
-    samples : list of FaceSample
-    scheme : LandmarkScheme
-    config : TrainConfig
-    progress : callable, optional
-        Wraps the sample iteration, e.g. ``tqdm``.
-    source : str
-        Where the samples came from, for the summary.
-
-    Raises
-    ------
-    TrainingError
-        Too few good images, or too few for the variance asked.
-    """
-    start = time.perf_counter()
+def _check_samples(samples: list[FaceSample], scheme: LandmarkScheme) -> None:
     if len(samples) < MIN_IMAGES:
         raise TrainingError(f"{len(samples)} images: training needs at least {MIN_IMAGES}")
     bad = [s for s in samples if s.points.shape != (scheme.n_points, 2)]
@@ -92,14 +65,40 @@ def train_aam(
             f"{bad[0].image_path}: {len(bad[0].points)} points, scheme {scheme.name} has "
             f"{scheme.n_points}"
         )
+
+
+def _shape_and_frame(
+    samples: list[FaceSample], config: TrainConfig
+) -> tuple[ShapeModel, ReferenceFrame]:
+    """The shape model of ``samples`` and the reference frame of its mean shape."""
     shapes = np.stack([s.points for s in samples])
     _, unit_mean, _ = generalised_procrustes(shapes)
     triangles = delaunay_triangles(unit_mean)
     scale = scale_for_pixels(unit_mean, triangles, config.n_pixels)
     shape_model = ShapeModel.train(shapes, config.shape_variance, scale)
-    frame = ReferenceFrame.from_mean_shape(shape_model.mean_shape, triangles)
-    channels = 3 if config.colour else 1
+    return shape_model, ReferenceFrame.from_mean_shape(shape_model.mean_shape, triangles)
 
+
+def _sample_textures(
+    samples: list[FaceSample],
+    scheme: LandmarkScheme,
+    shape_model: ShapeModel,
+    frame: ReferenceFrame,
+    config: TrainConfig,
+    progress: Callable[[Iterable[FaceSample]], Iterable[FaceSample]] | None,
+) -> tuple[list[np.ndarray], list[FaceSample], list[str]]:
+    """Sample the texture of every readable image of ``samples`` in ``frame``.
+
+    Returns
+    -------
+    textures : list of (M C,) float32 arrays
+        Normalised textures, ``M = frame.n_pixels``, ``C`` the channels.
+    kept : list of FaceSample
+        The samples whose image could be read, in their order.
+    skipped : list of str
+        One message per unreadable image.
+    """
+    channels = 3 if config.colour else 1
     # The texture model is not known yet: an AAM shell gives the sampling.
     shell = AAM(
         scheme,
@@ -118,20 +117,109 @@ def train_aam(
             continue
         textures.append(shell.sample(image, sample.points).astype(np.float32))
         kept.append(sample)
-    n = len(kept)
-    if n < MIN_IMAGES:
-        raise TrainingError(f"only {n} readable images: training needs at least {MIN_IMAGES}")
-    if skipped:
-        # Refit the shape model on the images that are actually used.
-        shape_model = ShapeModel.train(
-            np.stack([s.points for s in kept]), config.shape_variance, scale
+    return textures, kept, skipped
+
+
+@dataclass(frozen=True)
+class _Sampled:
+    """The readable images' textures, sampled in the frame built from those images.
+
+    Attributes
+    ----------
+    shape_model : ShapeModel
+        Trained on the ``n`` kept images.
+    frame : ReferenceFrame
+        The reference frame of its mean shape.
+    textures : (n, M C) float32 array
+        The kept images' normalised textures, sampled in ``frame``.
+    kept : list of FaceSample
+        The readable samples, in their order.
+    skipped : list of str
+        One message per unreadable image.
+    """
+
+    shape_model: ShapeModel
+    frame: ReferenceFrame
+    textures: np.ndarray
+    kept: list[FaceSample]
+    skipped: list[str]
+
+
+def _sample_in_final_frame(
+    samples: list[FaceSample],
+    scheme: LandmarkScheme,
+    config: TrainConfig,
+    progress: Callable[[Iterable[FaceSample]], Iterable[FaceSample]] | None,
+) -> _Sampled:
+    """Build the frame from the readable images and sample their textures in it.
+
+    The frame is first built from all ``samples``. If some images cannot be
+    read, shape model and frame are rebuilt from the others and their textures
+    sampled again, so that every texture comes from the final frame.
+    """
+    kept, skipped = list(samples), []
+    while True:
+        shape_model, frame = _shape_and_frame(kept, config)
+        textures, readable, failed = _sample_textures(
+            kept, scheme, shape_model, frame, config, progress
         )
-        frame = ReferenceFrame.from_mean_shape(shape_model.mean_shape, triangles)
+        skipped += failed
+        if len(readable) < MIN_IMAGES:
+            raise TrainingError(
+                f"only {len(readable)} readable images: training needs at least {MIN_IMAGES}"
+            )
+        if not failed:
+            return _Sampled(shape_model, frame, np.stack(textures), readable, skipped)
+        kept = readable
+
+
+def _check_texture_length(texture: TextureModel, frame: ReferenceFrame) -> None:
+    """The invariant of an AAM: one texture value per frame pixel and channel."""
+    if texture.mean.size != frame.n_pixels * texture.channels:
+        raise AssertionError(
+            f"texture length {texture.mean.size} != {frame.n_pixels} frame pixels x "
+            f"{texture.channels} channels: textures were sampled in another frame"
+        )
+
+
+def train_aam(
+    samples: list[FaceSample],
+    scheme: LandmarkScheme,
+    config: TrainConfig = TrainConfig(),
+    progress: Callable[[Iterable[FaceSample]], Iterable[FaceSample]] | None = None,
+    source: str = "",
+) -> AAM:
+    """Build shape, texture and combined models from ``samples``.
+
+    Images that cannot be read are reported in ``summary["skipped"]`` and left
+    out; training goes on while at least :data:`MIN_IMAGES` remain. The models
+    and the reference frame are then those of the remaining images alone.
+
+    Parameters
+    ----------
+    samples : list of FaceSample
+    scheme : LandmarkScheme
+    config : TrainConfig
+    progress : callable, optional
+        Wraps the sample iteration, e.g. ``tqdm`` (once more if images were skipped).
+    source : str
+        Where the samples came from, for the summary.
+
+    Raises
+    ------
+    TrainingError
+        Too few good images, or too few for the variance asked.
+    """
+    start = time.perf_counter()
+    _check_samples(samples, scheme)
+    sampled = _sample_in_final_frame(samples, scheme, config, progress)
+    shape_model, kept, n = sampled.shape_model, sampled.kept, len(sampled.kept)
     _check_rank("shape", shape_model.n_modes, n, config.shape_variance)
-    texture_model = TextureModel.train(np.stack(textures), config.texture_variance, channels)
+    channels = 3 if config.colour else 1
+    texture_model = TextureModel.train(sampled.textures, config.texture_variance, channels)
     _check_rank("texture", texture_model.n_modes, n, config.texture_variance)
     b_s = np.stack([shape_model.fit_points(s.points)[0] for s in kept])
-    b_g = texture_model.params(np.stack(textures).astype(np.float64))
+    b_g = texture_model.params(sampled.textures.astype(np.float64))
     combined = CombinedModel.train(
         b_s, b_g, shape_model.pca.variances, texture_model.pca.variances, config.combined_variance
     )
@@ -142,8 +230,11 @@ def train_aam(
         "subjects": len({s.subject for s in kept if s.subject is not None}),
         "train_subjects": sorted({s.subject for s in kept if s.subject is not None}),
         "train_images": [s.image_path.stem for s in kept],
-        "skipped": skipped,
+        "skipped": sampled.skipped,
         "config": asdict(config),
         "train_seconds": round(time.perf_counter() - start, 3),
     }
-    return AAM(scheme, shape_model, texture_model, combined, frame, config.equalise, summary)
+    _check_texture_length(texture_model, sampled.frame)
+    return AAM(
+        scheme, shape_model, texture_model, combined, sampled.frame, config.equalise, summary
+    )

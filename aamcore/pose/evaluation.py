@@ -68,6 +68,35 @@ def _signed_errors(est: dict[str, float], truth: dict[str, float]) -> list[float
     return out
 
 
+def _frame_record(
+    index: int,
+    landmarks: np.ndarray | None,
+    truth: Truth,
+    intrinsics: CameraIntrinsics,
+    model: HeadModel,
+    posit: Posit,
+) -> tuple[dict[str, Any], str]:
+    """One frame of :func:`evaluate_pose_sequence`: its ``per_frame`` record and outcome.
+
+    The outcome is ``"estimated"`` (a reliable estimate), ``"unreliable"``,
+    ``"missing"`` (no landmarks) or ``"failed"`` (PoseError).
+    """
+    true_params = pose_parameters(*_truth_pose(truth))
+    record: dict[str, Any] = {"frame": index, "truth": true_params, "estimate": None,
+                              "reliable": False, "reason": ""}
+    if landmarks is None:
+        record["reason"] = "no landmarks"
+        return record, "missing"
+    try:
+        est = posit.estimate(model.select(np.asarray(landmarks)), intrinsics)
+    except PoseError as exc:
+        record["reason"] = str(exc)
+        return record, "failed"
+    record.update(estimate=pose_parameters(est.R, est.T), reliable=est.reliable,
+                  reason=est.reason, rms_px=est.rms_px)
+    return record, "estimated" if est.reliable else "unreliable"
+
+
 def evaluate_pose_sequence(
     landmarks_per_frame: Sequence[np.ndarray | None],
     truth_per_frame: Sequence[Truth],
@@ -113,26 +142,12 @@ def evaluate_pose_sequence(
     counts = {"unreliable": 0, "missing": 0, "failed": 0}
     for i, (landmarks, truth) in enumerate(zip(landmarks_per_frame, truth_per_frame,
                                                strict=True)):
-        true_params = pose_parameters(*_truth_pose(truth))
-        record: dict[str, Any] = {"frame": i, "truth": true_params, "estimate": None,
-                                  "reliable": False, "reason": ""}
+        record, outcome = _frame_record(i, landmarks, truth, intrinsics, model, posit)
         per_frame.append(record)
-        if landmarks is None:
-            counts["missing"] += 1
-            record["reason"] = "no landmarks"
-            continue
-        try:
-            est = posit.estimate(model.select(np.asarray(landmarks)), intrinsics)
-        except PoseError as exc:
-            counts["failed"] += 1
-            record["reason"] = str(exc)
-            continue
-        record.update(estimate=pose_parameters(est.R, est.T), reliable=est.reliable,
-                      reason=est.reason, rms_px=est.rms_px)
-        if est.reliable:
-            errors.append(_signed_errors(record["estimate"], true_params))
+        if outcome == "estimated":
+            errors.append(_signed_errors(record["estimate"], record["truth"]))
         else:
-            counts["unreliable"] += 1
+            counts[outcome] += 1
     return {"frames": len(per_frame), "estimated": len(errors), **counts,
             "model": model.name, "errors": error_statistics(np.array(errors).reshape(-1, 4)),
             "per_frame": per_frame}

@@ -167,6 +167,51 @@ def _with_subset(model: HeadModel, rigid_subset: bool | str) -> HeadModel:
     return model.subset(rigid_subset)
 
 
+def _read_csv_table(path: Path) -> np.ndarray:
+    """The numeric rows of a head model CSV file, ``(M, 3)`` or ``(M, 4)``.
+
+    Skips blank lines, ``#`` comments and a non-numeric header line.
+
+    Raises
+    ------
+    PoseError
+        Naming the file and line of an unreadable row, or if the rows are not
+        all of 3 or all of 4 numbers.
+    """
+    rows: list[list[float]] = []
+    with path.open(newline="") as handle:
+        for line_no, row in enumerate(csv.reader(handle), start=1):
+            cells = [c.strip() for c in row if c.strip()]
+            if not cells or cells[0].startswith("#"):
+                continue
+            try:
+                rows.append([float(c) for c in cells])
+            except ValueError as exc:
+                if not rows and line_no <= 2:
+                    continue  # a header
+                raise PoseError(f"{path}:{line_no}: not numeric: {row}") from exc
+    widths = {len(r) for r in rows}
+    if not rows or len(widths) != 1 or widths.pop() not in (3, 4):
+        raise PoseError(f"{path}: expected rows of 3 (x,y,z) or 4 (index,x,y,z) numbers")
+    return np.array(rows)
+
+
+def _csv_points(table: np.ndarray, path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Landmark indices ``(M,)`` and points ``(M, 3)`` of a table from :func:`_read_csv_table`.
+
+    Raises
+    ------
+    PoseError
+        If the indices of a 4-column table are not distinct integers.
+    """
+    if table.shape[1] == 4:
+        indices = table[:, 0].astype(np.int64)
+        if not np.array_equal(indices, table[:, 0]) or len(set(indices.tolist())) != len(indices):
+            raise PoseError(f"{path}: landmark indices must be distinct integers")
+        return indices, table[:, 1:]
+    return np.arange(len(table)), table
+
+
 def load_csv_model(
     path: str | Path,
     scheme: str,
@@ -203,30 +248,7 @@ def load_csv_model(
     path = Path(path)
     if not path.is_file():
         raise PoseError(f"{path}: head model file not found")
-    rows: list[list[float]] = []
-    with path.open(newline="") as handle:
-        for line_no, row in enumerate(csv.reader(handle), start=1):
-            cells = [c.strip() for c in row if c.strip()]
-            if not cells or cells[0].startswith("#"):
-                continue
-            try:
-                rows.append([float(c) for c in cells])
-            except ValueError as exc:
-                if not rows and line_no <= 2:
-                    continue  # a header
-                raise PoseError(f"{path}:{line_no}: not numeric: {row}") from exc
-    widths = {len(r) for r in rows}
-    if not rows or len(widths) != 1 or widths.pop() not in (3, 4):
-        raise PoseError(f"{path}: expected rows of 3 (x,y,z) or 4 (index,x,y,z) numbers")
-    table = np.array(rows)
-    if table.shape[1] == 4:
-        indices = table[:, 0].astype(np.int64)
-        if not np.array_equal(indices, table[:, 0]) or len(set(indices.tolist())) != len(indices):
-            raise PoseError(f"{path}: landmark indices must be distinct integers")
-        points = table[:, 1:]
-    else:
-        indices = np.arange(len(table))
-        points = table
+    indices, points = _csv_points(_read_csv_table(path), path)
     if len(points) < 4:
         raise PoseError(f"{path}: {len(points)} points; POSIT needs at least 4")
     n = int(indices.max()) + 1 if n_landmarks is None else int(n_landmarks)

@@ -15,9 +15,9 @@ computes it once.
 Plain POSIT solves for ``r1`` and ``r2`` independently (eight unknowns for six
 degrees of freedom), which makes it noisier than a maximum-likelihood
 estimate. :class:`Posit` therefore finishes, by default, with a few
-Gauss-Newton steps on the pixel reprojection error, seeded by POSIT
-(``refine_iterations=0`` gives the thesis's algorithm alone); the bench
-``bench/bench_posit.py`` measures both.
+Gauss-Newton steps on the pixel reprojection error (:mod:`aamcore.pose.refine`),
+seeded by POSIT (``refine_iterations=0`` gives the thesis's algorithm alone);
+the bench ``bench/bench_posit.py`` measures both.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ import numpy as np
 
 from aamcore.pose.errors import PoseError
 from aamcore.pose.intrinsics import CameraIntrinsics
+from aamcore.pose.refine import gauss_newton
 from aamcore.pose.rotation import RPY, nearest_rotation, rpy_from_rotation
 
 MIN_POINTS = 4
@@ -227,7 +228,7 @@ class Posit:
         R, Tc, iterations, converged, delta = self._posit(xy, pinv)
         fxy = np.array(cam.focal)
         if self.refine_iterations > 0 and converged:
-            R, Tc = _gauss_newton(R, Tc, self._Xc, xy, w_pts, fxy, self.refine_iterations)
+            R, Tc = gauss_newton(R, Tc, self._Xc, xy, w_pts, fxy, self.refine_iterations)
         rms, spread, min_depth = self._residual(R, Tc, xy, w_pts, fxy)
         reason = self._problem(converged, iterations, delta, rms, spread, min_depth)
         T = Tc - R @ self._centre
@@ -348,85 +349,3 @@ def _facing_problem(R: np.ndarray, T: np.ndarray, limit_deg: float) -> str:
         return (f"the model faces away from the camera ({angle:.0f} deg from the line of sight, "
                 f"limit {limit_deg:g}): left and right landmarks swapped?")
     return ""
-
-
-def _skew_exp(omega: np.ndarray) -> np.ndarray:
-    """Rotation matrix of the rotation vector ``omega`` (Rodrigues), shape (3, 3)."""
-    theta = np.sqrt(omega @ omega)
-    if theta < 1e-12:
-        return np.eye(3)
-    k = omega / theta
-    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + np.sin(theta) * K + (1.0 - np.cos(theta)) * (K @ K)
-
-
-def _gauss_newton(
-    R: np.ndarray,
-    T: np.ndarray,
-    X: np.ndarray,
-    xy: np.ndarray,
-    w: np.ndarray | None,
-    fxy: np.ndarray,
-    iterations: int,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Minimise the (weighted) pixel reprojection error over ``(R, T)`` from a start pose.
-
-    Left-multiplicative rotation updates ``R <- exp([omega]x) R``. Started from
-    POSIT the error is nearly quadratic in the pose, so the steps are taken
-    without line search; the start pose is kept if the end pose is worse.
-
-    Parameters
-    ----------
-    R, T : (3, 3) and (3,) arrays
-        Start pose for the centred model ``X``.
-    X : (N, 3) array
-    xy : (N, 2) array
-        Normalised image coordinates.
-    w : (N,) array or None
-        Point weights.
-    fxy : (2,) array
-        Focal lengths, to measure the error in pixels.
-    iterations : int
-    """
-    n = len(X)
-    sw = np.ones(n) if w is None else np.sqrt(w)
-    su, sv = sw * fxy[0], sw * fxy[1]
-    J = np.empty((2 * n, 6))
-    R0, T0 = R, T
-    cost0 = np.inf
-    for _ in range(iterations):
-        Q = X @ R.T
-        qx, qy, qz = Q[:, 0], Q[:, 1], Q[:, 2]
-        z = qz + T[2]
-        if z.min() <= 0:
-            return R0, T0
-        iz = 1.0 / z
-        u = (qx + T[0]) * iz
-        v = (qy + T[1]) * iz
-        r = np.concatenate([(u - xy[:, 0]) * su, (v - xy[:, 1]) * sv])
-        if cost0 == np.inf:
-            cost0 = r @ r
-        a, b = iz * su, iz * sv
-        J[:n, 0] = -u * qy * a
-        J[:n, 1] = (qz + u * qx) * a
-        J[:n, 2] = -qy * a
-        J[:n, 3] = a
-        J[:n, 4] = 0.0
-        J[:n, 5] = -u * a
-        J[n:, 0] = -(qz + v * qy) * b
-        J[n:, 1] = v * qx * b
-        J[n:, 2] = qx * b
-        J[n:, 3] = 0.0
-        J[n:, 4] = b
-        J[n:, 5] = -v * b
-        try:
-            step = np.linalg.solve(J.T @ J, -(J.T @ r))
-        except np.linalg.LinAlgError:
-            break
-        R = _skew_exp(step[:3]) @ R
-        T = T + step[3:]
-    P = X @ R.T + T
-    if P[:, 2].min() <= 0:
-        return R0, T0
-    e = np.concatenate([(P[:, 0] / P[:, 2] - xy[:, 0]) * su, (P[:, 1] / P[:, 2] - xy[:, 1]) * sv])
-    return (R, T) if e @ e <= cost0 else (R0, T0)

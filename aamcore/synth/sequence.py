@@ -132,6 +132,40 @@ def render_sequence(
             yield frame.image, uv, visible
 
 
+def _write_frames(
+    out: Path,
+    poses: list[PoseTruth],
+    camera: CameraIntrinsics,
+    head: SynthHead,
+    texture: FaceTexture,
+    fps: float,
+) -> Path:
+    """Render ``poses`` into ``out/video.mp4`` and ``out/frames/NNNNNN.json``; returns the video.
+
+    Raises
+    ------
+    OSError
+        If the video cannot be written.
+    """
+    (out / "frames").mkdir(parents=True, exist_ok=True)
+    video_path = out / "video.mp4"
+    writer = cv2.VideoWriter(str(video_path), cv2.VideoWriter_fourcc(*"mp4v"), fps,
+                             (camera.width, camera.height))
+    if not writer.isOpened():
+        raise OSError(f"{video_path}: cannot open an mp4v video writer")
+    intrinsics = camera.to_json()
+    try:
+        rendered = render_sequence(poses, camera, head, texture)
+        for i, (pose, (image, uv, visible)) in enumerate(zip(poses, rendered, strict=True)):
+            writer.write(image)
+            record = {"frame": i, "landmarks": uv.tolist(), "visible": visible.tolist(),
+                      "scheme": "ibug68", **pose.to_json(), "intrinsics": intrinsics}
+            (out / "frames" / f"{i:06d}.json").write_text(json.dumps(record))
+    finally:
+        writer.release()
+    return video_path
+
+
 def synthesize(
     out_dir: str | Path,
     frames: int = 120,
@@ -168,25 +202,10 @@ def synthesize(
     camera = camera or CameraIntrinsics.from_fov(640, 480, 60.0)
     head = synth_head()
     texture = texture or default_texture(head)
-    (out / "frames").mkdir(parents=True, exist_ok=True)
-    video_path = out / "video.mp4"
-    writer = cv2.VideoWriter(str(video_path), cv2.VideoWriter_fourcc(*"mp4v"), fps,
-                             (camera.width, camera.height))
-    if not writer.isOpened():
-        raise OSError(f"{video_path}: cannot open an mp4v video writer")
-    intrinsics = camera.to_json()
-    try:
-        rendered = render_sequence(poses, camera, head, texture)
-        for i, (pose, (image, uv, visible)) in enumerate(zip(poses, rendered, strict=True)):
-            writer.write(image)
-            record = {"frame": i, "landmarks": uv.tolist(), "visible": visible.tolist(),
-                      "scheme": "ibug68", **pose.to_json(), "intrinsics": intrinsics}
-            (out / "frames" / f"{i:06d}.json").write_text(json.dumps(record))
-    finally:
-        writer.release()
+    video_path = _write_frames(out, poses, camera, head, texture, fps)
     summary = {
         "frames": frames, "sweep": sweep, "fps": fps, "video": video_path.name,
-        "intrinsics": intrinsics, "scheme": "ibug68",
+        "intrinsics": camera.to_json(), "scheme": "ibug68",
         "model_points_mm": head.landmarks_3d.tolist(),
         "mesh": "MediaPipe canonical face mesh in the openface_mean68 frame (mm, OpenCV axes)",
         "texture_source": texture.source,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -14,20 +15,17 @@ from services.bus.options import OptionError, Options, option
 DEFAULT_STREAM = "cam0"
 
 
-def _stream_problem(value: str) -> str:
-    try:
-        check_name(value)
-    except ProtoError as exc:
-        return exc.reason
-    return ""
+def _problem_of(check: Callable[[str], str]) -> Callable[[str], str]:
+    """An option check from a contract check that raises ``ProtoError``."""
 
+    def problem(value: str) -> str:
+        try:
+            check(value)
+        except ProtoError as exc:
+            return exc.reason
+        return ""
 
-def _run_problem(value: str) -> str:
-    try:
-        check_run_id(value)
-    except ProtoError as exc:
-        return exc.reason
-    return ""
+    return problem
 
 
 @dataclass(frozen=True)
@@ -50,7 +48,7 @@ class BusOptions(Options):
     """
 
     stream: str = option(DEFAULT_STREAM, "stream id", env="AAMTRACK_STREAM",
-                         check=_stream_problem)
+                         check=_problem_of(check_name))
     mode: str = option("peer", "zenoh mode", choices=MODES, env="AAMTRACK_ZENOH_MODE")
     listen: tuple[str, ...] = option((), "zenoh listen endpoint, repeatable",
                                      metavar="ENDPOINT", env="AAMTRACK_ZENOH_LISTEN")
@@ -60,7 +58,7 @@ class BusOptions(Options):
                                "endpoints given override it", metavar="FILE",
                                env="AAMTRACK_ZENOH_CONFIG")
     run_id: str = option("", "accept only messages of this run (set by the launcher)",
-                         metavar="RUN", env="AAMTRACK_RUN_ID", check=_run_problem)
+                         metavar="RUN", env="AAMTRACK_RUN_ID", check=_problem_of(check_run_id))
 
     def config(self) -> Any:
         """The ``zenoh.Config``: from ``zenoh_config`` when given, else multicast

@@ -95,15 +95,17 @@ class Screen:
 
 
 class _Holder:
-    """Subscriber side shared by the holders: screening and frame numbering."""
+    """Subscriber side shared by the holders: screening and, for a consumer that must see
+    every frame (``count_lost``), the gaps in the frame numbering."""
 
-    def __init__(self, screen: Screen, key: str, kind: str | None) -> None:
+    def __init__(self, screen: Screen, key: str, kind: str | None, count_lost: bool = False
+                 ) -> None:
         self.key = key
         self.kind = kind
         self.arrived: threading.Event | None = None
         """Set on every arrival, when given (a loop over several holders waits on it)."""
         self._screen = screen
-        self._numbering = FrameNumbering(screen.stats) if kind == "frame" else None
+        self._numbering = FrameNumbering(screen.stats) if count_lost else None
         self._cond = threading.Condition()
         self._woken = False
 
@@ -146,10 +148,11 @@ class Inbox(_Holder):
     cannot.
     """
 
-    def __init__(self, screen: Screen, key: str, kind: str | None, capacity: int) -> None:
+    def __init__(self, screen: Screen, key: str, kind: str | None, capacity: int,
+                 count_lost: bool = False) -> None:
         if capacity < 1:
             raise ValueError(f"inbox capacity must be at least 1, got {capacity}")
-        super().__init__(screen, key, kind)
+        super().__init__(screen, key, kind, count_lost)
         self.dropped = 0
         self._items: collections.deque[Received] = collections.deque(maxlen=capacity)
 

@@ -19,33 +19,29 @@ from __future__ import annotations
 
 import logging
 import os
-import re
 import threading
-import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable
 from typing import Any
 
-from proto import Header, Message, ProtoError, Status, decode, encode
-from proto.keys import TOPICS, alive_key, alive_wildcard, check_name, topic_key
+from proto import Header, Message, Status, encode
+from proto.keys import alive_key, check_name, topic_key
 from proto.messages import STATES
 from services.bus.connection import BusOptions
-from services.bus.inbox import Inbox, Latest, Received, Recent, Screen
+from services.bus.inbox import Screen
 from services.bus.options import OptionError
+from services.bus.presence import Presence
 from services.bus.process import ENV_RESTARTS, StopWatch
 from services.bus.qos import MUST_ARRIVE, TOPIC_QOS, QoS
+from services.bus.receiving import Receiving
 from services.bus.stats import ServiceStats
 
 STATUS_PERIOD = 1.0
 """Seconds between two status messages of a service."""
-MAX_LOGGED_REASONS = 64
-"""Distinct rejection reasons logged per service; later ones are only counted."""
-POLL_S = 0.5
-"""Longest wait of a message loop before it looks whether it must stop."""
 
 _log = logging.getLogger("aamtrack.bus")
 
 
-class Service:
+class Service(Receiving, Presence):
     """A service's Zenoh session, liveliness token, status publisher and counters.
 
     Parameters
@@ -222,176 +218,6 @@ class Service:
                     publisher = self.session.declare_publisher(key, **settings)
                     self._publishers[key] = publisher
         publisher.put(payload)
-
-    # -- receiving ----------------------------------------------------------------------------
-
-    def _key_and_kind(self, kind_or_key: str, kind: str | None) -> tuple[str, str | None]:
-        if kind_or_key in TOPICS:
-            return self.key(kind_or_key), kind_or_key
-        return kind_or_key, kind
-
-    def _hold(self, holder: Any) -> Any:
-        self._holders.append(holder)
-        self.subscribe(holder.key, holder.push)
-        return holder
-
-    def inbox(self, kind_or_key: str, capacity: int = 1, kind: str | None = None) -> Inbox:
-        """The latest ``capacity`` messages of a kind of this stream (or a key expression)."""
-        key, kind = self._key_and_kind(kind_or_key, kind)
-        return self._hold(Inbox(self.screen, key, kind, capacity))
-
-    def latest(self, kind: str) -> Latest:
-        """The last message of a kind of this stream."""
-        return self._hold(Latest(self.screen, self.key(kind), kind))
-
-    def recent(self, kind: str, size: int) -> Recent:
-        """The last ``size`` messages of a kind of this stream, by frame."""
-        return self._hold(Recent(self.screen, self.key(kind), kind, size))
-
-    def messages(self, kind_or_key: str, capacity: int = 1,
-                 kind: str | None = None) -> Iterator[Received]:
-        """The service loop: each valid message of the run, until the service stops.
-
-        Subscribes now, so call it before :meth:`ready` (a peer waiting for
-        the service's token may publish at once); declares the service ready
-        when the loop starts if it is not yet; the time from yielding a
-        message to asking for the next is its latency.
-        """
-        inbox = self.inbox(kind_or_key, capacity, kind)
-
-        def loop() -> Iterator[Received]:
-            self.ready()
-            while not self.stopping:
-                got = inbox.get(timeout=POLL_S)
-                if got is not None:
-                    yield from self._timed(got)
-
-        return loop()
-
-    def messages_of(self, inputs: dict[str, tuple[str, int]], tick: float = POLL_S
-                    ) -> Iterator[Received | None]:
-        """The service loop over several inputs: ``{key or kind: (kind, capacity)}``.
-
-        Each round takes what is waiting from each input in the given order;
-        when nothing is waiting for ``tick`` seconds the loop yields None, so
-        that the caller can look at its clocks.
-        """
-        arrived = threading.Event()
-        inboxes = []
-        for name, (kind, capacity) in inputs.items():
-            inbox = self.inbox(name, capacity, kind)
-            inbox.arrived = arrived
-            inboxes.append(inbox)
-
-        def loop() -> Iterator[Received | None]:
-            self.ready()
-            while not self.stopping:
-                arrived.clear()
-                took = False
-                for inbox in inboxes:
-                    while (got := inbox.get(timeout=0)) is not None:
-                        took = True
-                        yield from self._timed(got)
-                if not took and not arrived.wait(tick):
-                    yield None
-
-        return loop()
-
-    def _timed(self, got: Received) -> Iterator[Received]:
-        started = time.perf_counter()
-        yield got
-        self.stats.latency.add(1000 * (time.perf_counter() - started))
-
-    def subscribe(self, key: str, callback: Callable[[Any], None]) -> Any:
-        """Declare a subscriber calling ``callback(sample)``; undeclared on close."""
-        import zenoh
-
-        sub = self.session.declare_subscriber(key, zenoh.handlers.Callback(callback))
-        self._declared.append(sub)
-        return sub
-
-    def queryable(self, key: str, callback: Callable[[Any], None]) -> Any:
-        """Declare a queryable calling ``callback(query)``; undeclared on close."""
-        import zenoh
-
-        qbl = self.session.declare_queryable(key, zenoh.handlers.Callback(callback))
-        self._declared.append(qbl)
-        return qbl
-
-    def querier(self, key: str, timeout: float) -> Any:
-        """Declare a querier of ``key`` with replies awaited ``timeout`` seconds."""
-        qos = TOPIC_QOS["fit"].publisher_kwargs()
-        q = self.session.declare_querier(key, timeout=timeout, **qos)
-        self._declared.append(q)
-        return q
-
-    def decode(self, payload: bytes, kind: str | None = None, source: str = "bus"
-               ) -> Message | None:
-        """Decode a payload; on failure count it as rejected, log the reason once, return None."""
-        try:
-            return decode(payload, kind)
-        except ProtoError as exc:
-            self.reject(source, exc.reason)
-            return None
-
-    def reject(self, source: str, reason: str) -> None:
-        """Count one rejected input; log its reason the first time a reason of its shape is seen.
-
-        Reasons that differ only in numbers count as one, so a flood of bad
-        input gives a handful of log lines; the total is in the status.
-        """
-        self.stats.rejected += 1
-        shape = re.sub(r"\d+", "#", reason)[:200]
-        if shape in self._reasons:
-            return
-        if len(self._reasons) < MAX_LOGGED_REASONS:
-            self._reasons.add(shape)
-            self.log.warning("rejected input from %s: %s", source, reason)
-        elif len(self._reasons) == MAX_LOGGED_REASONS:
-            self._reasons.add("")
-            self.log.warning("more kinds of rejected input: counted in the status only")
-
-    def peers(self) -> int:
-        """Zenoh peers and routers this session is connected to now."""
-        info = self.session.info
-        return len(list(info.peers_zid())) + len(list(info.routers_zid()))
-
-    # -- presence -----------------------------------------------------------------------------
-
-    def watch_presence(self) -> None:
-        """Follow which services of the stream hold liveliness tokens (with history)."""
-        import zenoh
-
-        def on_change(sample: Any) -> None:
-            name = str(sample.key_expr).rsplit("/", 1)[-1]
-            with self._lock:
-                if sample.kind == zenoh.SampleKind.DELETE:
-                    self._alive.discard(name)
-                else:
-                    self._alive.add(name)
-
-        sub = self.session.liveliness().declare_subscriber(
-            alive_wildcard(self.stream), zenoh.handlers.Callback(on_change), history=True)
-        self._declared.append(sub)
-        self._watching = True
-
-    def alive(self) -> set[str]:
-        """Services of the stream alive now (after :meth:`watch_presence`)."""
-        with self._lock:
-            return set(self._alive)
-
-    def wait_for_alive(self, services: Iterable[str], timeout: float) -> list[str]:
-        """Wait until ``services`` of this stream are alive; return those missing."""
-        if not self._watching:
-            self.watch_presence()
-        wanted = set(services)
-        deadline = time.monotonic() + timeout
-        while not self.stopping:
-            missing = wanted - self.alive()
-            if not missing or time.monotonic() >= deadline:
-                return sorted(missing)
-            self.wait(0.02)
-        return sorted(wanted - self.alive())
 
     # -- status -------------------------------------------------------------------------------
 

@@ -59,14 +59,20 @@ def _common(p: argparse.ArgumentParser) -> None:
     add_options(p.add_argument_group("bus"), BusOptions)
 
 
-def _client_bus(args: argparse.Namespace) -> BusOptions:
-    """The bus of ``echo`` and ``record``: by default, connect where ``run`` listens."""
+def _client(args: argparse.Namespace) -> Service | None:
+    """The session of ``echo`` or ``record`` (not announced on the stack's stream): by
+    default it connects where ``run`` listens; None, with a message, for bad options."""
     from services.stack.launcher import DEFAULT_ENDPOINT
 
-    bus = options_from(BusOptions, args)
+    try:
+        bus = options_from(BusOptions, args)
+    except OptionError as exc:
+        print(f"aamtrack {args.command}: error: {exc}", file=sys.stderr)
+        return None
     if not bus.listen and not bus.connect:
         bus = bus.replace(connect=(DEFAULT_ENDPOINT,))
-    return bus
+    init_process(args.command, args.verbose)
+    return Service(args.command, bus, announce=False)
 
 
 def _wait_for_peer(svc: Service, timeout: float) -> bool:
@@ -131,14 +137,11 @@ def describe(msg: Message) -> str:
 
 def cmd_echo(args: argparse.Namespace) -> int:
     """``aamtrack echo KEYEXPR``."""
-    try:
-        bus = _client_bus(args)
-    except OptionError as exc:
-        print(f"aamtrack echo: error: {exc}", file=sys.stderr)
+    client = _client(args)
+    if client is None:
         return 2
-    init_process("echo", args.verbose)
     done, lock, seen = threading.Event(), threading.Lock(), [0]
-    with Service("echo", bus, announce=False) as svc:
+    with client as svc:
         def on_sample(sample: Any) -> None:
             msg = svc.decode(sample.payload.to_bytes(), source=str(sample.key_expr))
             line = (describe(msg) if msg is not None
@@ -165,14 +168,11 @@ def record_keys(stream: str, frames: bool, overlays: bool) -> list[str]:
 
 def cmd_record(args: argparse.Namespace) -> int:
     """``aamtrack record --out FILE``."""
-    try:
-        bus = _client_bus(args)
-    except OptionError as exc:
-        print(f"aamtrack record: error: {exc}", file=sys.stderr)
+    client = _client(args)
+    if client is None:
         return 2
-    init_process("record", args.verbose)
     ended = threading.Event()
-    with RecordWriter(args.out) as writer, Service("record", bus, announce=False) as svc:
+    with RecordWriter(args.out) as writer, client as svc:
         def on_sample(sample: Any) -> None:
             payload = sample.payload.to_bytes()
             msg = svc.decode(payload, source=str(sample.key_expr))
@@ -183,7 +183,7 @@ def cmd_record(args: argparse.Namespace) -> int:
             if msg.KIND == "eos" and args.until_eos:
                 threading.Timer(2.0, ended.set).start()
 
-        for key in record_keys(bus.stream, args.frames, args.overlays):
+        for key in record_keys(svc.stream, args.frames, args.overlays):
             svc.subscribe(key, on_sample)
         svc.ready(f"recording to {args.out}")
         code = _run(svc, args, ended)

@@ -143,7 +143,7 @@ def serve(svc: Service, fitter: Fitter, warp_path: str, opts: FitterOptions) -> 
     """Fit frames until stopped."""
     detector = ServiceDetector(svc, opts.detect_timeout, opts.local_for)
     tracker = FrameTracker(svc, fitter, warp_path, detector)
-    frames = svc.messages("frame", capacity=opts.capacity)
+    frames = svc.messages("frame", capacity=opts.capacity, count_lost=True)
     svc.ready(f"{fitter.name}, warp {warp_path}")
     for got in frames:
         fit = tracker.handle(got)

@@ -6,28 +6,10 @@ import numpy as np
 import rerun as rr
 
 from aamcore.pose.head_model import HeadModel
-from proto.messages import (
-    EndOfStream,
-    Expression,
-    FaceBoxes,
-    Fit,
-    Frame,
-    HeadPose,
-    Message,
-    Overlay,
-    Status,
-)
+from proto.messages import MESSAGE_TYPES, EndOfStream, Message
 from services.rerun_logger import entities as ent
+from services.rerun_logger import loggers
 from services.rerun_logger.annotations import LandmarkClasses
-from services.rerun_logger.loggers import (
-    BoxesLogger,
-    ExpressionLogger,
-    FitLogger,
-    ImageLogger,
-    LatencyLogger,
-    PoseLogger,
-    StatusLogger,
-)
 from services.rerun_logger.options import DEFAULT_QUALITY
 from services.rerun_logger.series import SeriesWriter
 
@@ -58,14 +40,19 @@ class StreamLogger:
         self._rec = rec
         classes = LandmarkClasses()
         series = SeriesWriter(rec)
-        self.frames = ImageLogger(rec, ent.VIDEO, jpeg_quality)
-        self.overlays = ImageLogger(rec, ent.OVERLAY, jpeg_quality)
-        self.boxes = BoxesLogger(rec)
-        self.fits = FitLogger(rec, classes, series)
-        self.poses = PoseLogger(rec, classes, series, head_model)
-        self.expressions = ExpressionLogger(rec, series)
-        self.latency = LatencyLogger(series)
-        self.statuses = StatusLogger(rec, series)
+        self.frames = loggers.ImageLogger(rec, ent.VIDEO, jpeg_quality)
+        self.overlays = loggers.ImageLogger(rec, ent.OVERLAY, jpeg_quality)
+        self.boxes = loggers.BoxesLogger(rec)
+        self.fits = loggers.FitLogger(rec, classes, series)
+        self.poses = loggers.PoseLogger(rec, classes, series, head_model)
+        self.expressions = loggers.ExpressionLogger(rec, series)
+        self.latency = loggers.LatencyLogger(series)
+        self.statuses = loggers.StatusLogger(rec, series)
+        self._by_kind = {
+            "frame": self.frames.log, "overlay": self.overlays.log, "boxes": self.boxes.log,
+            "fit": self.fits.log, "pose": self.poses.log, "expression": self.expressions.log,
+            "status": self.statuses.log, "eos": self._log_end,
+        }
         self.counts: dict[str, int] = {}
         """Messages logged, by kind."""
 
@@ -84,28 +71,13 @@ class StreamLogger:
         TypeError
             For an object that is not one of the proto message kinds.
         """
+        if type(msg) is not MESSAGE_TYPES.get(getattr(msg, "KIND", "")):
+            raise TypeError(f"not a proto message: {type(msg).__name__}")
         self.set_time(msg)
-        match msg:
-            case Frame():
-                self.frames.log(msg)
-            case Overlay():
-                self.overlays.log(msg)
-            case FaceBoxes():
-                self.boxes.log(msg)
-            case Fit():
-                self.fits.log(msg)
-            case HeadPose():
-                self.poses.log(msg)
-            case Expression():
-                self.expressions.log(msg)
-            case Status():
-                self.statuses.log(msg)
-            case EndOfStream():
-                self._rec.log(
-                    ent.EVENTS,
-                    rr.TextLog(f"end of stream after {msg.total_frames} frames: {msg.reason}"),
-                )
-            case _:
-                raise TypeError(f"not a proto message: {type(msg).__name__}")
+        self._by_kind[msg.KIND](msg)
         self.latency.log(msg)
         self.counts[msg.KIND] = self.counts.get(msg.KIND, 0) + 1
+
+    def _log_end(self, msg: EndOfStream) -> None:
+        self._rec.log(ent.EVENTS,
+                      rr.TextLog(f"end of stream after {msg.total_frames} frames: {msg.reason}"))

@@ -51,6 +51,8 @@ NAME = "launcher"
 EXIT_OK, EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 FINAL_STATUS_WAIT = 2.0
 """Seconds to wait, once the processes are gone, for their last status messages."""
+SETTLE = 0.3
+"""Seconds the launcher listens before it starts anything, to hear services already there."""
 BEST_EFFORT = {"ar": 5, "rerun": 5}
 """Niceness of the stages off the capture-to-pose path: they yield the CPU to it."""
 SERVICE_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
@@ -131,6 +133,9 @@ def wait_for_end(svc: Service, sup: Supervisor, mon: StackMonitor, opts: StackOp
     eos_at: float | None = None
     while not svc.wait(0.1):
         sup.check()
+        if mon.foreign and not mon.counts["fit"]:
+            runs = ", ".join(f"{run}: {', '.join(sorted(n))}" for run, n in mon.foreign.items())
+            return f"taken: services of another run are on this endpoint ({runs})"
         if mon.eos is not None and eos_at is None:
             eos_at = time.monotonic()
             log.info("end of stream after %d frames (%s)", mon.eos.total_frames, mon.eos.reason)
@@ -187,6 +192,8 @@ class Stack:
         try:
             self.service.open()
             self.monitor.subscribe()
+            if self.opts.bus is None:
+                self._refuse_if_taken()
             self.service.ready(f"listening on {self.endpoint}, run {self.run_id}")
             log.info("stack bus at %s (other programs can connect there)", self.endpoint)
             self.supervisor.start()
@@ -194,6 +201,16 @@ class Stack:
             self.__exit__(None, None, None)
             raise
         return self
+
+    def _refuse_if_taken(self) -> None:
+        """Services already alive on the launcher's endpoint belong to another run."""
+        self.service.watch_presence()
+        self.service.wait(SETTLE)
+        others = sorted(self.service.alive() & set(SERVICES))
+        if others:
+            raise preflight.PreflightError(
+                f"--endpoint {self.endpoint}: services of another run are on it "
+                f"({', '.join(others)}): stop them first")
 
     def wait(self) -> str:
         """Watch the run until it ends; the outcome (see :func:`wait_for_end`)."""
@@ -239,8 +256,12 @@ def run_stack(opts: StackOptions) -> int:
     except (preflight.PreflightError, OptionError) as exc:
         print(f"aamtrack run: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
-    with Stack(opts) as stack:
-        stack.wait()
+    try:
+        with Stack(opts) as stack:
+            stack.wait()
+    except preflight.PreflightError as exc:
+        print(f"aamtrack run: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
     summary = stack.summary()
     print(summary_table(summary))
     if opts.launch.summary:
@@ -262,6 +283,10 @@ def exit_code(outcome: str, summary: dict[str, Any]) -> int:
     if outcome == "stopped":
         print("aamtrack run: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    if outcome.startswith("taken"):
+        print(f"aamtrack run: error: {outcome.removeprefix('taken: ')}: stop them first",
+              file=sys.stderr)
+        return EXIT_INPUT
     why = reason.removeprefix("error: ") if reason.startswith("error") else outcome
     print(f"aamtrack run: error: {why}", file=sys.stderr)
     return EXIT_FAILED

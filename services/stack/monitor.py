@@ -16,6 +16,7 @@ from proto import EndOfStream, Message, Status, decode
 from proto.keys import status_wildcard
 from services.bus.session import Service
 from services.stack.recorder import IMAGE_KINDS, RESULT_KINDS, RecordWriter
+from services.stack.registry import SERVICES
 
 RESULTS = ("fit", "pose", "expression")
 
@@ -32,7 +33,7 @@ class StackMonitor:
         self.fits_no_face = 0
         self.statuses: dict[str, Status] = {}
         self.foreign: dict[str, set[str]] = {}
-        """Run id -> services of another run seen on the bus (from their statuses)."""
+        """Run id -> stack services of another run seen on the bus (from their statuses)."""
         self.eos: EndOfStream | None = None
         self.last_result = time.monotonic()
         self.pose_latency_ms: list[float] = []
@@ -63,7 +64,7 @@ class StackMonitor:
             status = decode(payload, "status")
         except ValueError:
             return
-        if status.header.run_id != self.svc.run_id:
+        if status.header.run_id != self.svc.run_id and status.service in SERVICES:
             with self._lock:
                 self.foreign.setdefault(status.header.run_id, set()).add(status.service)
 

@@ -8,8 +8,9 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from aamcore.fitting.failure import FailureTest
-from aamcore.fitting.residuals import WarpFn
+from aamcore.fitting.residuals import ResidualFunction, WarpFn
 from aamcore.fitting.result import FitResult
+from aamcore.model.aam import AAM
 from aamcore.model.similarity import Similarity
 
 if TYPE_CHECKING:
@@ -22,8 +23,8 @@ class AlgorithmSettings:
 
     Attributes
     ----------
-    failure : FailureTest
-        How a failed fit is recognised.
+    failure : FailureTest, optional
+        How a failed fit is recognised (the thesis's eq. 7.2 by default).
     warp : callable, optional
         Texture sampler ``warp(image, shape) -> (M, C)``; the AAM's CPU warp
         by default (the GPU-warp worker offers the same call).
@@ -31,9 +32,25 @@ class AlgorithmSettings:
         Iteration limit of the iterative algorithms (each has its own default).
     """
 
-    failure: FailureTest
+    failure: FailureTest | None = None
     warp: WarpFn | None = None
     max_iterations: int | None = None
+
+
+class ModelAlgorithm:
+    """What the algorithms built on an AAM share: the model, its residual, the failure test.
+
+    Parameters
+    ----------
+    aam : AAM
+    settings : AlgorithmSettings, optional
+    """
+
+    def __init__(self, aam: AAM, settings: AlgorithmSettings | None = None) -> None:
+        settings = settings or AlgorithmSettings()
+        self.aam = aam
+        self.residual = ResidualFunction(aam, settings.warp)
+        self.failure = settings.failure or FailureTest(aam.combined.pca.variances)
 
 
 class Algorithm(Protocol):

@@ -7,9 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from aamcore.fitting.algorithm.base import AlgorithmSettings
-from aamcore.fitting.failure import FailureTest
-from aamcore.fitting.residuals import ResidualFunction, WarpFn
+from aamcore.fitting.algorithm.base import AlgorithmSettings, ModelAlgorithm
 from aamcore.fitting.result import FitResult
 from aamcore.fitting.training.update import UpdateMatrix
 from aamcore.model.aam import AAM
@@ -23,7 +21,7 @@ DAMPING = (1.0, 1.5, 0.5, 0.25, 0.125)
 MAX_ITERATIONS = 20
 
 
-class FixedJacobian:
+class FixedJacobian(ModelAlgorithm):
     """Fit ``p = (c, t)`` by ``p <- p - alpha R r`` with the learned ``R``.
 
     Parameters
@@ -31,39 +29,26 @@ class FixedJacobian:
     aam : AAM
     update : UpdateMatrix
         ``R`` from :func:`aamcore.fitting.training.update.train_update`.
-    max_iterations : int
-    warp : callable, optional
-        Texture sampler ``warp(image, shape) -> (M, C)`` (CPU warp by default).
-    failure : FailureTest, optional
-        The test of a failed fit (eq. 7.2 by default).
+    settings : AlgorithmSettings, optional
+        At most ``settings.max_iterations`` iterations (:data:`MAX_ITERATIONS` by default).
     """
 
     name = "fixed-jacobian"
 
     def __init__(
-        self,
-        aam: AAM,
-        update: UpdateMatrix,
-        max_iterations: int = MAX_ITERATIONS,
-        warp: WarpFn | None = None,
-        failure: FailureTest | None = None,
+        self, aam: AAM, update: UpdateMatrix, settings: AlgorithmSettings | None = None
     ) -> None:
-        self.aam = aam
+        super().__init__(aam, settings)
         self.R = np.ascontiguousarray(update.R, dtype=np.float32)
-        self.max_iterations = max_iterations
-        self.residual = ResidualFunction(aam, warp)
+        self.max_iterations = (settings and settings.max_iterations) or MAX_ITERATIONS
         self.n_c = aam.n_appearance
-        self.failure = failure or FailureTest(aam.combined.pca.variances)
 
     @classmethod
     def from_model(
         cls, model: FittingModel, settings: AlgorithmSettings, level: int = 0
     ) -> FixedJacobian:
         """The fitter of the update matrix learned for pyramid ``level``."""
-        return cls(
-            model.aam, model.update(level), settings.max_iterations or MAX_ITERATIONS,
-            settings.warp, settings.failure,
-        )
+        return cls(model.aam, model.update(level), settings)
 
     def _step(
         self, c: np.ndarray, t: np.ndarray, dp: np.ndarray, alpha: float

@@ -18,9 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import ndimage
 
-from aamcore.fitting.algorithm.base import AlgorithmSettings
-from aamcore.fitting.failure import FailureTest
-from aamcore.fitting.residuals import ResidualFunction, WarpFn
+from aamcore.fitting.algorithm.base import AlgorithmSettings, ModelAlgorithm
 from aamcore.fitting.result import FitResult
 from aamcore.model.aam import AAM
 from aamcore.model.similarity import Similarity
@@ -56,32 +54,21 @@ def texture_gradient(frame_image: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return np.stack([gx, gy], axis=-1)
 
 
-class ProjectOutInverseCompositional:
+class ProjectOutInverseCompositional(ModelAlgorithm):
     """Fit the shape by project-out inverse composition on the mean texture.
 
     Parameters
     ----------
     aam : AAM
-    max_iterations : int
-    warp : callable, optional
-        Texture sampler ``warp(image, shape) -> (M, C)``.
-    failure : FailureTest, optional
-        The test of a failed fit (eq. 7.2 by default).
+    settings : AlgorithmSettings, optional
+        At most ``settings.max_iterations`` iterations (:data:`MAX_ITERATIONS` by default).
     """
 
     name = "project-out-ic"
 
-    def __init__(
-        self,
-        aam: AAM,
-        max_iterations: int = MAX_ITERATIONS,
-        warp: WarpFn | None = None,
-        failure: FailureTest | None = None,
-    ) -> None:
-        self.aam = aam
-        self.max_iterations = max_iterations
-        self.residual = ResidualFunction(aam, warp)
-        self.failure = failure or FailureTest(aam.combined.pca.variances)
+    def __init__(self, aam: AAM, settings: AlgorithmSettings | None = None) -> None:
+        super().__init__(aam, settings)
+        self.max_iterations = (settings and settings.max_iterations) or MAX_ITERATIONS
         frame = aam.frame
         self.mean_shape = aam.shape.mean_shape
         self.s0 = frame.vertices  # mean shape in frame pixels
@@ -118,8 +105,7 @@ class ProjectOutInverseCompositional:
         cls, model: FittingModel, settings: AlgorithmSettings
     ) -> ProjectOutInverseCompositional:
         """The fitter of ``model``'s AAM (it learns nothing beyond the AAM)."""
-        return cls(model.aam, settings.max_iterations or MAX_ITERATIONS, settings.warp,
-                   settings.failure)
+        return cls(model.aam, settings)
 
     def _affines(self, shape: np.ndarray) -> np.ndarray:
         """Affine maps (T, 2, 3) from each frame triangle to its image triangle."""

@@ -19,11 +19,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from aamcore.fitting.algorithm.base import AlgorithmSettings
+from aamcore.fitting.algorithm.base import AlgorithmSettings, ModelAlgorithm
 from aamcore.fitting.algorithm.project_out_ic import shape_basis
-from aamcore.fitting.failure import FailureTest
 from aamcore.fitting.features import FrameHog
-from aamcore.fitting.residuals import ResidualFunction, WarpFn
 from aamcore.fitting.result import FitResult
 from aamcore.model.aam import AAM
 from aamcore.model.similarity import Similarity
@@ -60,32 +58,23 @@ def model_frame_step(
     return basis.T @ delta.ravel()
 
 
-class SupervisedDescent:
+class SupervisedDescent(ModelAlgorithm):
     """Fit by a cascade of learned linear updates on HOG features.
 
     Parameters
     ----------
     aam : AAM
     cascade : DescentCascade
-    warp : callable, optional
-        Texture sampler ``warp(image, shape) -> (M,)`` for grey images.
-    failure : FailureTest, optional
-        The test of a failed fit (eq. 7.2 by default).
+    settings : AlgorithmSettings, optional
     """
 
     name = "supervised-descent"
 
     def __init__(
-        self,
-        aam: AAM,
-        cascade: DescentCascade,
-        warp: WarpFn | None = None,
-        failure: FailureTest | None = None,
+        self, aam: AAM, cascade: DescentCascade, settings: AlgorithmSettings | None = None
     ) -> None:
-        self.aam = aam
+        super().__init__(aam, settings)
         self.cascade = cascade
-        self.residual = ResidualFunction(aam, warp)
-        self.failure = failure or FailureTest(aam.combined.pca.variances)
         self.features = FrameHog(aam.frame, cascade.hog_cell)
         self.basis = shape_basis(aam.shape.mean_shape, aam.shape.pca.components)
         self.weights = [np.ascontiguousarray(w, dtype=np.float32) for w in cascade.weights]
@@ -97,7 +86,7 @@ class SupervisedDescent:
         """The cascade ``model`` learned."""
         if model.cascade is None:
             raise ValueError("this model has no supervised-descent cascade: train it with `--fit`")
-        return cls(model.aam, model.cascade, settings.warp, settings.failure)
+        return cls(model.aam, model.cascade, settings)
 
     def features_at(self, image: np.ndarray, shape: np.ndarray) -> np.ndarray:
         """Feature vector (D + 1,) with a trailing 1 for the bias."""

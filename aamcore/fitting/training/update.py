@@ -141,6 +141,50 @@ def perturbed_residuals(
     return out
 
 
+def _choose_images(
+    samples: list[FaceSample], max_images: int | None, seed: int
+) -> list[FaceSample]:
+    """``samples``, or a random subset of ``max_images`` of them (in their order) if more."""
+    chosen = list(samples)
+    if max_images is not None and len(chosen) > max_images:
+        rng = np.random.default_rng(seed)
+        chosen = [chosen[i] for i in sorted(rng.choice(len(chosen), max_images, replace=False))]
+    return chosen
+
+
+def _solve_update(
+    method: str,
+    displacements: np.ndarray,
+    used: int,
+    gp: np.ndarray,
+    blocks: list[np.ndarray],
+    regression_variance: float,
+) -> np.ndarray:
+    """The update matrix ``R`` (t_c + 4, M C) from the accumulated experiments.
+
+    Parameters
+    ----------
+    method : {"jacobian", "regression"}
+    displacements : (E, t_c + 4) array
+        The displacements tried on every image.
+    used : int
+        Images whose residuals were accumulated.
+    gp : (M C, t_c + 4) array
+        ``Delta_g Delta_p^T`` summed over the images (``"jacobian"``).
+    blocks : list of (E, M C) arrays
+        The residuals of each image (``"regression"``).
+    regression_variance : float
+        Fraction of the residual variance the regression keeps.
+    """
+    if method == "jacobian":
+        pp = displacements.T @ displacements * used  # Delta_p Delta_p^T
+        jacobian = gp @ np.linalg.inv(pp)
+        return np.linalg.pinv(jacobian)
+    dg = np.vstack(blocks).T.astype(np.float64)  # (m, s)
+    dp = np.tile(displacements, (used, 1)).T  # (n_p, s)
+    return principal_component_regression(dp, dg, regression_variance)
+
+
 def train_update(
     aam: AAM,
     samples: list[FaceSample],
@@ -177,10 +221,7 @@ def train_update(
     """
     if method not in METHODS:
         raise ValueError(f"unknown update method {method!r}: choose one of {METHODS}")
-    rng = np.random.default_rng(seed)
-    chosen = list(samples)
-    if max_images is not None and len(chosen) > max_images:
-        chosen = [chosen[i] for i in sorted(rng.choice(len(chosen), max_images, replace=False))]
+    chosen = _choose_images(samples, max_images, seed)
     displacements = scheme.displacements(aam)
     residual = ResidualFunction(aam)
     n_p, m = displacements.shape[1], aam.texture_basis.shape[0]
@@ -199,14 +240,7 @@ def train_update(
             blocks.append(block)
     if used == 0:
         raise ValueError("no readable training image for the update training")
-    if method == "jacobian":
-        pp = displacements.T @ displacements * used  # Delta_p Delta_p^T
-        jacobian = gp @ np.linalg.inv(pp)
-        R = np.linalg.pinv(jacobian)
-    else:
-        dg = np.vstack(blocks).T.astype(np.float64)  # (m, s)
-        dp = np.tile(displacements, (used, 1)).T  # (n_p, s)
-        R = principal_component_regression(dp, dg, regression_variance)
+    R = _solve_update(method, displacements, used, gp, blocks, regression_variance)
     return UpdateMatrix(R.astype(np.float32), method, used, used * len(displacements), scheme)
 
 

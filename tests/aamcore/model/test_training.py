@@ -1,6 +1,9 @@
+import shutil
+
 import numpy as np
 import pytest
 
+from aamcore.io import load_annotated_folder
 from aamcore.model.texture import normalise_texture
 from aamcore.model.training import TrainConfig, TrainingError, train_aam
 
@@ -69,3 +72,28 @@ def test_training_skips_unreadable_images(imm_set, tmp_path) -> None:
     )
     assert aam.summary["images"] == 11
     assert any("broken.jpg" in s for s in aam.summary["skipped"])
+
+
+def test_skipped_image_leaves_frame_and_textures_consistent(imm_dir, tmp_path) -> None:
+    # An image that breaks after loading: the frame and the textures must both
+    # come from the 11 readable images (texture length == frame pixels x channels).
+    for jpg in sorted(imm_dir.glob("*.jpg"))[:12]:
+        shutil.copyfile(jpg, tmp_path / jpg.name)
+        shutil.copyfile(jpg.with_suffix(".asf"), tmp_path / jpg.with_suffix(".asf").name)
+    data = load_annotated_folder(tmp_path)
+    assert len(data.samples) == 12
+    data.samples[0].image_path.write_bytes(b"not a jpeg")
+    config = TrainConfig(
+        n_pixels=2000, texture_variance=0.8, shape_variance=0.8, combined_variance=0.8
+    )
+    aam = train_aam(data.samples, data.scheme, config)
+    assert aam.summary["images"] == 11 and len(aam.summary["skipped"]) == 1
+    assert aam.texture.mean.size == aam.frame.n_pixels * aam.channels
+    assert aam.texture_basis.shape[0] == aam.frame.n_pixels * aam.channels
+    # The same model as one trained on the readable images alone.
+    clean = train_aam(data.samples[1:], data.scheme, config)
+    assert aam.frame.n_pixels == clean.frame.n_pixels
+    np.testing.assert_array_equal(aam.shape.mean_shape, clean.shape.mean_shape)
+    np.testing.assert_array_equal(aam.texture.mean, clean.texture.mean)
+    c, t = aam.parameters_of(data.samples[1].load_image(), data.samples[1].points)
+    assert aam.texture_instance(c).shape == aam.texture.mean.shape

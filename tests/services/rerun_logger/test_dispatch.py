@@ -71,5 +71,5 @@ def test_a_real_sequence_is_logged_frame_by_frame(new_recording, rrd_tools, face
 
 def test_unknown_objects_are_refused(new_recording):
     logger = StreamLogger(new_recording().stream)
-    with pytest.raises(AttributeError):
+    with pytest.raises(TypeError, match="not a proto message"):
         logger.log(object())  # type: ignore[arg-type]

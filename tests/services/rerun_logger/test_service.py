@@ -221,3 +221,27 @@ def test_service_reports_an_unwritable_rrd_path(tmp_path):
     done = _service_command("--stream", STREAM, "--rrd", str(tmp_path / "missing" / "x.rrd"))
     assert done.returncode == 2
     assert "cannot open the recording" in done.stderr and "does not exist" in done.stderr
+
+
+def test_a_restarted_service_writes_a_new_part_and_keeps_the_first(
+    bus, tmp_path, rrd_tools, faces, messages_of, monkeypatch
+):
+    read, verify = rrd_tools
+    rrd = tmp_path / "run.rrd"
+    rrd.write_bytes(b"what the first run wrote")
+    monkeypatch.setenv("AAMTRACK_RESTARTS", "1")  # as the supervisor sets it on a restart
+    process = _start(bus, "--rrd", str(rrd), "--idle", "0.3")
+    try:
+        bus.wait_for_subscribers()
+        for msg in messages_of(faces[0], 0):
+            bus.publish(msg)
+        bus.publish(EndOfStream(messages_of(faces[0], 0)[0].header, total_frames=1,
+                                reason="end_of_file"))
+        process.join(30)
+        assert process.exitcode == 0
+    finally:
+        _stop(process)
+    assert rrd.read_bytes() == b"what the first run wrote"
+    part = tmp_path / "run.part1.rrd"
+    verify(part)
+    assert read(part).frames("/" + ent.LANDMARKS, "Points2D:positions") == [0]

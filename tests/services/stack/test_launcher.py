@@ -27,9 +27,9 @@ from proto import EndOfStream, Fit, Frame, Header, encode
 from services.bus.connection import BusOptions
 from services.bus.qos import MUST_ARRIVE
 from services.bus.session import Service
-from services.stack.launcher import Stack, free_port, prepare_models
+from services.stack.launcher import EXIT_FAILED, Stack, exit_code, free_port, prepare_models
 from services.stack.options import StackOptions
-from services.stack.recorder import load_messages
+from services.stack.recorder import load_messages, read_recording
 
 RERUN_CLI = Path(sys.executable).with_name("rerun")
 
@@ -199,9 +199,11 @@ def flood(intruder: Service) -> None:
 
 def test_a_flood_of_invalid_and_foreign_messages_displaces_no_real_frame(
     single_face: Path, stack_options: Callable[..., StackOptions],
-    caplog: pytest.LogCaptureFixture,
+    caplog: pytest.LogCaptureFixture, tmp_path: Path,
 ) -> None:
-    opts = stack_options(single_face, ar=False, loop=2)
+    rec = tmp_path / "flood.rec"
+    opts = stack_options(single_face, ar=False, loop=2, jpeg=80, record=str(rec),
+                         record_images=True)
     with Stack(opts) as stack, Service("intruder", intruder_bus(stack),
                                        handle_signals=False) as intruder:
         wait_for(lambda: stack.monitor.counts["fit"] >= 10, "the stack produced no fits")
@@ -219,6 +221,9 @@ def test_a_flood_of_invalid_and_foreign_messages_displaces_no_real_frame(
         assert s["rejected"] == INVALID // 2 + 1 and s["dropped"] == 0, (name, s)
         assert s["frames_in"] == total, (name, s)
     assert all(code == 0 for code in stack.exit_codes.values()), stack.exit_codes
+    recording = read_recording(rec)  # images are screened before they are recorded
+    assert recording.stopped == ""
+    assert sorted(by_frame(recording.messages, "frame")) == list(range(total))
 
 
 def test_a_foreign_end_of_stream_does_not_end_the_run(
@@ -327,3 +332,43 @@ def test_without_jaffe_the_expression_service_is_started_without_a_classifier(
     expression = ready.services["expression"]
     assert expression.model == str(model_path) and expression.classifier is None
     assert any("no expression classifier" in r.getMessage() for r in caplog.records)
+
+
+def test_a_run_refuses_to_start_beside_services_of_another_run(
+    single_face: Path, stack_options: Callable[..., StackOptions],
+) -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    stray = BusOptions("cam0", listen=("tcp/127.0.0.1:0",), connect=(endpoint,),
+                       run_id="run-stray")
+    # The source waits for a service that never comes: the stack cannot start before the
+    # stray service has connected and been heard.
+    opts = stack_options(single_face, ar=False, endpoint=endpoint,
+                         extra={"source": ["--wait-for=ghost", "--wait-timeout=60"]})
+    with Service("pose", stray, status_period=0.2, handle_signals=False) as other:
+        other.ready()
+        with Stack(opts) as stack:
+            outcome = stack.wait()
+    assert outcome.startswith("taken") and "run-stray: pose" in outcome, outcome
+    assert stack.summary()["frames_with"]["fit"] == 0
+
+
+def test_frames_lost_to_a_stopped_consumer_are_counted_and_fail_the_run(
+    single_face: Path, stack_options: Callable[..., StackOptions],
+) -> None:
+    opts = stack_options(single_face, ar=False, pace="realtime", loop=4)
+    with Stack(opts) as stack:
+        wait_for(lambda: stack.monitor.counts["fit"] >= 10, "the stack produced no fits")
+        pid = stack.supervisor.pid("fitter")
+        assert pid is not None
+        os.kill(pid, signal.SIGSTOP)
+        time.sleep(3.0)
+        os.kill(pid, signal.SIGCONT)
+        assert stack.wait() == "done"
+    summary = stack.summary()
+    fitter = summary["services"]["fitter"]
+    total = summary["total_frames"]
+    # Every frame is accounted for: answered, dropped by design, or lost on the way.
+    assert fitter["frames_in"] + fitter["dropped"] + summary["frames_lost"] >= total, fitter
+    assert fitter["dropped"] + summary["frames_lost"] > 0, fitter
+    # A run with frames lost to a fault fails; one that only dropped frames by design does not.
+    assert (exit_code("done", summary) == EXIT_FAILED) == (summary["frames_lost"] > 0)

@@ -1,0 +1,166 @@
+"""Reliability bench: Ctrl-C at random moments, and how fast bad options are refused.
+
+Run: ``.venv/bin/python bench/bench_reliability.py [--runs 50] [--small-model]``
+
+1. **Ctrl-C**: ``aamtrack run`` on ``single_face.mp4`` played forever with a
+   Rerun recording and a message recording, in a process group of its own;
+   after a random 1-12 s, SIGINT to the whole group (as a terminal's Ctrl-C
+   does). Counted per run: a hang (not gone 20 s later), the exit code, whether
+   the ``.rrd`` verifies (``rerun rrd verify``) and the ``.rec`` loads whole.
+   Target: 0 hangs, every ``.rrd`` verifies, every ``.rec`` loads.
+2. **Option errors**: each bad option of ``aamtrack run`` (a text, truncated
+   or old model, a garbage or NaN calibration, ``--fov 0``, ``--jpeg 500``,
+   ``--loop -1``, a video over 4096 px, a busy endpoint), with the time to its
+   exit. Target: exit 2 with one line, within 2 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import random
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from aamcore.config import REPO_ROOT, data_root
+from aamcore.expression.training import classifier_path
+from aamcore.fitting.training.prepare import default_model_path
+from services.stack.recorder import read_recording
+
+RERUN = Path(sys.executable).with_name("rerun")
+ENV = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO_ROOT)}
+
+
+def interrupted_run(argv: list[str], folder: Path, k: int, rng: random.Random) -> dict:
+    """One run stopped by SIGINT to its process group; what it left behind."""
+    rrd, rec = folder / f"run{k}.rrd", folder / f"run{k}.rec"
+    proc = subprocess.Popen([sys.executable, "-m", "services", "run", *argv, "--rrd", str(rrd),
+                             "--record", str(rec)], env=ENV, cwd=REPO_ROOT,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    delay = rng.uniform(1.0, 12.0)
+    time.sleep(delay)
+    os.killpg(proc.pid, signal.SIGINT)
+    try:
+        code = proc.wait(20)
+        hung = False
+    except subprocess.TimeoutExpired:
+        hung = True
+        os.killpg(proc.pid, signal.SIGKILL)
+        code = proc.wait(10)
+    verified = rrd.exists() and subprocess.run(
+        [str(RERUN), "rrd", "verify", str(rrd)], capture_output=True, timeout=60).returncode == 0
+    loads = rec.exists() and read_recording(rec).stopped == ""
+    return {"delay": delay, "code": code, "hung": hung, "rrd": verified, "rec": loads,
+            "rrd_made": rrd.exists()}
+
+
+def interrupts(runs: int, model: Path, classifier: Path, seed: int) -> bool:
+    rng = random.Random(seed)
+    video = data_root() / "videos" / "single_face.mp4"
+    argv = ["--video", str(video), "--loop", "0", "--model", str(model),
+            "--classifier", str(classifier)]
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for k in range(runs):
+            rows.append(interrupted_run(argv, Path(tmp), k, rng))
+            r = rows[-1]
+            print(f"run {k + 1:>3}: SIGINT after {r['delay']:4.1f} s -> exit {r['code']}, "
+                  f"{'HUNG, ' if r['hung'] else ''}rrd {'ok' if r['rrd'] else 'BAD'}, "
+                  f"rec {'ok' if r['rec'] else 'BAD'}", flush=True)
+    hangs = sum(r["hung"] for r in rows)
+    bad_rrd = sum(not r["rrd"] for r in rows)
+    bad_rec = sum(not r["rec"] for r in rows)
+    codes = sorted({r["code"] for r in rows})
+    print(f"\n{runs} runs: {hangs} hangs, {bad_rrd} .rrd that do not verify, {bad_rec} .rec that "
+          f"do not load; exit codes {codes}")
+    ok = hangs == 0 and bad_rrd == 0 and bad_rec == 0
+    print(f"{'PASS' if ok else 'FAIL'}: 0 hangs, every .rrd verifies, every .rec loads")
+    return ok
+
+
+def bad_inputs(folder: Path, model: Path) -> list[tuple[str, list[str]]]:
+    """``(what, run arguments)`` of each bad option."""
+    video = str(data_root() / "videos" / "single_face.mp4")
+    text = folder / "model.npz"
+    text.write_text("not a model\n")
+    cut = folder / "cut.npz"
+    cut.write_bytes(model.read_bytes()[:5000])
+    with np.load(model, allow_pickle=False) as data:
+        arrays = {k: data[k] for k in data.files}
+    header = json.loads(arrays["header"].tobytes())
+    header["format_version"] = 1
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), np.uint8)
+    old = folder / "old.npz"
+    np.savez(old, **arrays)
+    garbage = folder / "cam.yaml"
+    garbage.write_bytes(b"\x00\x01 not a calibration")
+    nan = folder / "nan.json"
+    nan.write_text('{"camera_matrix": [[800, 0, 320], [0, 800, 240], [0, 0, 1]], '
+                   '"image_width": NaN, "image_height": 480}')
+    wide = folder / "wide.mp4"
+    writer = cv2.VideoWriter(str(wide), cv2.VideoWriter_fourcc(*"mp4v"), 10, (4200, 16))
+    for _ in range(3):
+        writer.write(np.zeros((16, 4200, 3), np.uint8))
+    writer.release()
+    return [("text model", ["--video", video, "--model", str(text)]),
+            ("truncated model", ["--video", video, "--model", str(cut)]),
+            ("model of format 1", ["--video", video, "--model", str(old)]),
+            ("garbage calibration", ["--video", video, "--calibration", str(garbage)]),
+            ("calibration width NaN", ["--video", video, "--calibration", str(nan)]),
+            ("--fov 0", ["--video", video, "--fov", "0"]),
+            ("--jpeg 500", ["--video", video, "--jpeg", "500"]),
+            ("--loop -1", ["--video", video, "--loop", "-1"]),
+            ("4200 px video", ["--video", str(wide)])]
+
+
+def option_errors(model: Path) -> bool:
+    ok = True
+    print(f"{'bad option':<24}{'exit':>5}{'seconds':>9}  message")
+    with tempfile.TemporaryDirectory() as tmp, socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        cases = bad_inputs(Path(tmp), model)
+        cases.append(("busy --endpoint", ["--video", str(data_root() / "videos" /
+                                                         "single_face.mp4"), "--endpoint",
+                                          f"tcp/127.0.0.1:{busy.getsockname()[1]}"]))
+        for what, argv in cases:
+            started = time.monotonic()
+            done = subprocess.run([sys.executable, "-m", "services", "run", *argv], env=ENV,
+                                  cwd=REPO_ROOT, capture_output=True, text=True, timeout=60)
+            took = time.monotonic() - started
+            lines = [line for line in done.stderr.splitlines() if line.strip()]
+            good = done.returncode == 2 and len(lines) == 1 and took <= 2.0
+            ok &= good
+            print(f"{what:<24}{done.returncode:>5}{took:>9.2f}  {lines[0] if lines else '?'}")
+    print(f"{'PASS' if ok else 'FAIL'}: every bad option exits 2 with one line within 2 s")
+    return ok
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=50)
+    parser.add_argument("--small-model", action="store_true",
+                        help="the small test model (120 images), as the tests use")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    model = (default_model_path(max_images=10, limit=120) if args.small_model
+             else default_model_path())
+    classifier = classifier_path(model)
+    ok = option_errors(model)
+    print()
+    ok &= interrupts(args.runs, model, classifier, args.seed)
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,99 @@
+"""The base of every message kind: a header and body fields declared with specs.
+
+Each kind declares its body fields with a spec (:mod:`proto.fields`,
+:mod:`proto.arrays`); constructing a message validates every field, and
+``to_dict`` / ``from_dict`` convert the body to and from its msgpack map
+(fields in declaration order). Arrays are read-only when decoded; arrays given
+to a constructor are converted to the wire dtype, copied only when needed.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, field, fields
+from typing import Any, ClassVar, Self
+
+import msgpack
+
+from proto.arrays import ArraySpec
+from proto.fields import Int, Spec, Str, check_keys, type_name
+from proto.header import Header
+from proto.keys import topic_key
+from proto.limits import MAX_IMAGE_HEIGHT, MAX_IMAGE_WIDTH, MAX_SMALL_ARRAY_BYTES, ProtoError
+
+
+def spec(s: Spec) -> Any:
+    """Declare a required body field validated by ``s``."""
+    return field(metadata={"spec": s})
+
+
+def small(dtype: str, *shape: int | None) -> Any:
+    """Declare a small array field (at most ``MAX_SMALL_ARRAY_BYTES``, no NaN)."""
+    return spec(ArraySpec(dtype, shape, MAX_SMALL_ARRAY_BYTES))
+
+
+WIDTH = Int(1, MAX_IMAGE_WIDTH)
+HEIGHT = Int(1, MAX_IMAGE_HEIGHT)
+COUNT = Int()
+NAME = Str(min_len=1)
+
+
+@dataclass(frozen=True, eq=False)
+class Message:
+    """Base of every message kind: a header and the body fields of the subclass."""
+
+    KIND: ClassVar[str] = ""
+    header: Header
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.header, Header):
+            raise ProtoError(f"{self.KIND}.header: expected a Header, got {type_name(self.header)}")
+        for name, s in self.specs().items():
+            object.__setattr__(self, name, s.check(getattr(self, name), f"{self.KIND}.{name}"))
+        self._check()
+
+    def _check(self) -> None:
+        """Rules that tie fields together; raise ``ProtoError``. Overridden by kinds."""
+
+    @classmethod
+    @functools.cache
+    def specs(cls) -> dict[str, Spec]:
+        """Body field name -> spec, in wire order."""
+        return {f.name: f.metadata["spec"] for f in fields(cls) if "spec" in f.metadata}
+
+    def key(self) -> str:
+        """The Zenoh key this message is published on."""
+        return topic_key(self.header.stream_id, self.KIND)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The body as a msgpack-ready map (arrays as ``{"dtype", "shape", "data"}``)."""
+        return {name: s.encode(getattr(self, name)) for name, s in self.specs().items()}
+
+    @classmethod
+    def from_dict(cls, body: Any, header: Header) -> Self:
+        """Validate an unpacked body map and build the message.
+
+        Raises
+        ------
+        ProtoError
+            Naming the first field that does not fit.
+        """
+        if not isinstance(header, Header):
+            raise ProtoError(f"{cls.KIND}.header: expected a Header, got {type_name(header)}")
+        specs = cls.specs()
+        check_keys(body, specs, cls.KIND)
+        msg = object.__new__(cls)
+        object.__setattr__(msg, "header", header)
+        for name, s in specs.items():
+            object.__setattr__(msg, name, s.decode(body[name], f"{cls.KIND}.{name}"))
+        msg._check()
+        return msg
+
+    def __eq__(self, other: object) -> bool:
+        # Wire equality: arrays compare by bytes, and a NaN equals itself.
+        if type(other) is not type(self):
+            return NotImplemented
+        pack = functools.partial(msgpack.packb, use_bin_type=True)
+        return self.header == other.header and pack(self.to_dict()) == pack(other.to_dict())
+
+    __hash__ = None  # type: ignore[assignment]
