@@ -4,6 +4,9 @@ msgpack has no array type (and ``packb`` rejects numpy), so an array travels
 as a map ``{"dtype": "f4", "shape": [68, 2], "data": <bin>}``: ``data`` holds
 the elements in C (row-major) order, little-endian, and its length is exactly
 ``prod(shape) * itemsize``. Only the dtypes in :data:`DTYPES` exist on the wire.
+
+In the JSON form of a message (:mod:`proto.schema`) ``data`` is the elements
+as nested lists instead, one level per dimension (``numpy.ndarray.tolist``).
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from proto.fields import check_keys, is_int, type_name
+from proto.fields import NAN_JSON, check_keys, is_int, type_name
 from proto.limits import MAX_DIM, ProtoError
 
 DTYPES: dict[str, np.dtype] = {
@@ -127,6 +130,67 @@ class ArraySpec:
         arr = np.frombuffer(data, dtype=DTYPES[code]).reshape(shape_t)
         self._check_values(arr, name)
         return arr
+
+    def json_schema(self) -> dict[str, Any]:
+        """A JSON Schema fragment of the array's JSON form, ``data`` as nested lists.
+
+        Fixed dimensions are exact lengths of ``shape`` and of the lists;
+        that the lists' lengths equal a free dimension's ``shape`` entry, and
+        the byte limit, are stated in the description only.
+        """
+        if DTYPES[self.dtype].kind == "u":
+            info = np.iinfo(DTYPES[self.dtype])
+            item: dict[str, Any] = {
+                "type": "integer",
+                "minimum": int(info.min),
+                "maximum": int(info.max),
+            }
+        else:
+            item = {"type": "number"}
+            if self.allow_nan:
+                item = {"anyOf": [item, {"const": NAN_JSON}]}
+        data = item
+        for want in reversed(self.shape):
+            lengths = (
+                {"maxItems": MAX_DIM} if want is None else {"minItems": want, "maxItems": want}
+            )
+            data = {"type": "array", "items": data, **lengths}
+        dims = [
+            {"type": "integer", "minimum": 0, "maximum": MAX_DIM}
+            if want is None
+            else {"const": want}
+            for want in self.shape
+        ]
+        shape = _shape_text(self.shape)
+        shape = shape[:-1] + ",)" if len(self.shape) == 1 else shape
+        free = f" (* a free dimension, 0 to {MAX_DIM})" if None in self.shape else ""
+        if DTYPES[self.dtype].kind != "f":
+            values = ""
+        elif self.allow_nan:
+            values = '; NaN elements allowed (as the string "NaN"), no infinity'
+        else:
+            values = "; no NaN, no infinity"
+        return {
+            "type": "object",
+            "description": (
+                f"A {shape} {self.dtype} ({DTYPES[self.dtype].name}) array{free}: data holds "
+                "its elements as nested lists in row-major order, one list level per "
+                "dimension, each list as long as its entry of shape (on the wire: little-endian "
+                f"bytes, at most {self.max_bytes}){values}."
+            ),
+            "properties": {
+                "dtype": {"const": self.dtype},
+                "shape": {
+                    "type": "array",
+                    "prefixItems": dims,
+                    "minItems": len(dims),
+                    "maxItems": len(dims),
+                },
+                "data": data,
+            },
+            "required": list(ARRAY_KEYS),
+            "additionalProperties": False,
+        }
 
     def _check_shape(self, shape: tuple[int, ...], name: str) -> None:
         ok = len(shape) == len(self.shape) and all(

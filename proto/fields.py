@@ -5,18 +5,27 @@ and returns it normalised; ``decode(obj, name)``, which does the same for a
 value unpacked from msgpack; and ``encode(value)``, which returns what to pack.
 For scalars the wire value and the Python value are the same, so ``decode`` is
 ``check``. Array specs (:mod:`proto.arrays`) follow the same protocol.
+
+``json_schema()`` describes a spec as a JSON Schema (draft 2020-12) fragment
+of the field's JSON form (:mod:`proto.schema`): scalars as themselves, except
+a NaN, which JSON lacks, as the string :data:`NAN_JSON`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
 
 from proto.limits import MAX_INT, MAX_LIST_LEN, MAX_STR_LEN, ProtoError
+
+NAN_JSON = "NaN"
+"""How a NaN float is written in the JSON form of a message (JSON has no NaN)."""
+Patterns = Mapping[Callable[..., object], str]
+"""Regular expression (JSON Schema ``pattern``) of each ``Str.validate`` rule."""
 
 
 class Spec(Protocol):
@@ -81,6 +90,9 @@ class Int:
 
     decode = check
 
+    def json_schema(self) -> dict[str, Any]:
+        return {"type": "integer", "minimum": self.lo, "maximum": self.hi}
+
 
 @dataclass(frozen=True)
 class Float:
@@ -117,6 +129,16 @@ class Float:
 
     decode = check
 
+    def json_schema(self) -> dict[str, Any]:
+        number: dict[str, Any] = {"type": "number"}
+        if self.lo > -math.inf:
+            number["minimum"] = self.lo
+        if self.hi < math.inf:
+            number["maximum"] = self.hi
+        if not self.allow_nan:
+            return number
+        return {"anyOf": [number, {"const": NAN_JSON}]}
+
 
 @dataclass(frozen=True)
 class Bool:
@@ -131,6 +153,9 @@ class Bool:
         return value
 
     decode = check
+
+    def json_schema(self) -> dict[str, Any]:
+        return {"type": "boolean"}
 
 
 @dataclass(frozen=True)
@@ -167,6 +192,36 @@ class Str:
 
     decode = check
 
+    def json_schema(self, patterns: Patterns | None = None) -> dict[str, Any]:
+        """The fragment; ``patterns`` gives the regular expression of ``validate``.
+
+        JSON Schema counts characters, not UTF-8 bytes: ``maxLength`` is the
+        byte limit (a character is at least one byte), ``minLength`` the
+        fewest characters of ``min_len`` bytes; the description states the
+        byte rule.
+
+        Raises
+        ------
+        ValueError
+            If ``validate`` is set and ``patterns`` has no pattern for it.
+        """
+        out: dict[str, Any] = {"type": "string"}
+        if self.choices is not None:
+            out["enum"] = list(self.choices)
+        else:
+            if self.validate is None:
+                out["description"] = f"{self.min_len} to {self.max_len} bytes of UTF-8."
+            if self.min_len > 0:
+                out["minLength"] = -(-self.min_len // 4)
+            out["maxLength"] = self.max_len
+        if self.validate is not None:
+            pattern = (patterns or {}).get(self.validate)
+            if pattern is None:
+                rule = getattr(self.validate, "__name__", repr(self.validate))
+                raise ValueError(f"no JSON Schema pattern for the string rule {rule}")
+            out["pattern"] = pattern
+        return out
+
 
 @dataclass(frozen=True)
 class StrList:
@@ -189,3 +244,11 @@ class StrList:
         return list(value)
 
     decode = check
+
+    def json_schema(self, patterns: Patterns | None = None) -> dict[str, Any]:
+        return {
+            "type": "array",
+            "items": self.item.json_schema(patterns),
+            "maxItems": self.max_items,
+            "uniqueItems": True,
+        }

@@ -1,6 +1,8 @@
 """Canonical example messages, one per kind, with fixed synthetic content.
 
-Their encodings are committed as ``tests/proto/golden/<kind>.msgpack``; the
+Their encodings are committed as ``tests/proto/golden/<kind>.msgpack``, and
+their decoded values, in the JSON form that ``proto/schema/<kind>.schema.json``
+describes (:func:`proto.json_form.to_json`), as ``<kind>.json`` beside them; the
 tests check that encoding reproduces those files byte for byte, so any change
 to the contract shows up as a diff of them. After a deliberate change (and a
 ``SCHEMA_VERSION`` bump) regenerate them with::
@@ -18,19 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from proto.codec import encode
+from proto import messages as kinds
+from proto.codec import decode, encode
 from proto.header import Header
-from proto.messages import (
-    EndOfStream,
-    Expression,
-    FaceBoxes,
-    Fit,
-    Frame,
-    HeadPose,
-    Message,
-    Overlay,
-    Status,
-)
+from proto.json_form import dumps, to_json
 
 CAPTURE_NS = 1_700_000_000_000_000_000
 """2023-11-14T22:13:20Z."""
@@ -55,93 +48,116 @@ def _header(producer: str, frame_index: int = 42) -> Header:
     return Header("cam0", frame_index, CAPTURE_NS, producer, CAPTURE_NS + 5_000_000, RUN_ID)
 
 
-def golden_messages() -> dict[str, Message]:
-    """One canonical message of each kind, keyed by kind."""
+def _fit() -> kinds.Fit:
     index = np.arange(68)
     landmarks = np.stack([100 + (index % 17) * 8.5, 150 + (index // 17) * 12.25], axis=1)
-    messages: list[Message] = [
-        Frame.from_array(_header("source"), np.arange(72, dtype=np.uint8).reshape(4, 6, 3)),
-        FaceBoxes(
+    return kinds.Fit(
+        _header("fitter"),
+        scheme="ibug68",
+        landmarks=landmarks,
+        appearance=np.array([0.5, -1.25, 0.125, 2.0, -0.0625]),
+        similarity=np.array([1.03125, -0.015625, 12.5, -7.75]),
+        image_width=640,
+        image_height=480,
+        texture_error=0.0123,
+        iterations=7,
+        converged=True,
+        failed=False,
+        failure_reason="",
+        warp_path="gpu",
+    )
+
+
+def _head_pose() -> kinds.HeadPose:
+    return kinds.HeadPose(
+        _header("pose"),
+        rotation=np.array([[0.8, 0.0, 0.6], [0.0, 1.0, 0.0], [-0.6, 0.0, 0.8]]),
+        translation_mm=np.array([12.5, -30.0, 650.0]),
+        roll_deg=0.0,
+        pitch_deg=0.0,
+        yaw_deg=36.87,
+        intrinsics=np.array([[800.0, 0.0, 320.0], [0.0, 800.0, 240.0], [0.0, 0.0, 1.0]]),
+        image_width=640,
+        image_height=480,
+        intrinsics_source="assumed:fov43.6",
+        iterations=4,
+        reliable=True,
+    )
+
+
+def _status() -> kinds.Status:
+    return kinds.Status(
+        _header("fitter", frame_index=999),
+        service="fitter",
+        state="running",
+        frames_in=1000,
+        frames_out=990,
+        dropped=8,
+        rejected=2,
+        lost=1,
+        ignored=3,
+        latency_p50_ms=4.5,
+        latency_p99_ms=11.25,
+        restarts=0,
+        message="",
+    )
+
+
+def golden_messages() -> dict[str, kinds.Message]:
+    """One canonical message of each kind, keyed by kind."""
+    messages: list[kinds.Message] = [
+        kinds.Frame.from_array(_header("source"), np.arange(72, dtype=np.uint8).reshape(4, 6, 3)),
+        kinds.FaceBoxes(
             _header("detector"),
             image_width=640,
             image_height=480,
             boxes=np.array([[200.5, 120.25, 180.0, 180.0], [10.0, 20.0, 30.0, 40.0]]),
             scores=np.array([0.875, 0.25]),
         ),
-        Fit(
-            _header("fitter"),
-            scheme="ibug68",
-            landmarks=landmarks,
-            appearance=np.array([0.5, -1.25, 0.125, 2.0, -0.0625]),
-            similarity=np.array([1.03125, -0.015625, 12.5, -7.75]),
-            image_width=640,
-            image_height=480,
-            texture_error=0.0123,
-            iterations=7,
-            converged=True,
-            failed=False,
-            failure_reason="",
-            warp_path="gpu",
-        ),
-        HeadPose(
-            _header("pose"),
-            rotation=np.array([[0.8, 0.0, 0.6], [0.0, 1.0, 0.0], [-0.6, 0.0, 0.8]]),
-            translation_mm=np.array([12.5, -30.0, 650.0]),
-            roll_deg=0.0,
-            pitch_deg=0.0,
-            yaw_deg=36.87,
-            intrinsics=np.array([[800.0, 0.0, 320.0], [0.0, 800.0, 240.0], [0.0, 0.0, 1.0]]),
-            image_width=640,
-            image_height=480,
-            intrinsics_source="assumed:fov43.6",
-            iterations=4,
-            reliable=True,
-        ),
-        Expression(
+        _fit(),
+        _head_pose(),
+        kinds.Expression(
             _header("expression"),
             label="happy",
             class_names=("neutral", "happy", "sad", "surprise", "anger", "disgust", "fear"),
             scores=np.array([4, 45, 3, 5, 2, 3, 2]) / 64,
             smoothed=True,
         ),
-        Overlay.from_jpeg(_header("overlay"), GREY_JPEG_8X8, width=8, height=8),
-        Status(
-            _header("fitter", frame_index=999),
-            service="fitter",
-            state="running",
-            frames_in=1000,
-            frames_out=990,
-            dropped=8,
-            rejected=2,
-            lost=1,
-            ignored=3,
-            latency_p50_ms=4.5,
-            latency_p99_ms=11.25,
-            restarts=0,
-            message="",
-        ),
-        EndOfStream(_header("source"), total_frames=43, reason="end_of_file"),
+        kinds.Overlay.from_jpeg(_header("ar"), GREY_JPEG_8X8, width=8, height=8),
+        _status(),
+        kinds.EndOfStream(_header("source"), total_frames=43, reason="end_of_file"),
     ]
     return {m.KIND: m for m in messages}
 
 
-def write_golden(directory: Path) -> list[Path]:
-    """Write ``<kind>.msgpack`` for every golden message into ``directory``."""
+def golden_json(payload: bytes) -> str:
+    """The JSON text of a golden payload's decoded message (``<kind>.json``)."""
+    return dumps(to_json(decode(payload)))
+
+
+def write_golden(directory: Path) -> list[tuple[Path, Path]]:
+    """Write ``<kind>.msgpack`` and ``<kind>.json`` for every golden message into ``directory``.
+
+    Returns the pair of paths of each kind.
+    """
     directory.mkdir(parents=True, exist_ok=True)
     paths = []
     for kind, msg in golden_messages().items():
+        payload = encode(msg)
         path = directory / f"{kind}.msgpack"
-        path.write_bytes(encode(msg))
-        paths.append(path)
+        path.write_bytes(payload)
+        json_path = directory / f"{kind}.json"
+        json_path.write_text(golden_json(payload), encoding="utf-8")
+        paths.append((path, json_path))
     return paths
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m proto.golden DIR``: regenerate the golden files."""
+    """``python -m proto.golden DIR``: regenerate the golden files (one line per kind)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("directory", type=Path, help="e.g. tests/proto/golden")
-    for path in write_golden(parser.parse_args(argv).directory):
-        print(path)
+    for path, json_path in write_golden(parser.parse_args(argv).directory):
+        print(path, json_path)
     return 0
 
 
