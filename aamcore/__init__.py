@@ -1,14 +1,28 @@
-"""aamcore: Active Appearance Models as a library, with no bus code.
+"""aamcore: Active Appearance Model face tracking as a library, with no bus code.
 
-Modules, one idea each:
+The one-call API (loaded on first use, so that ``import aamcore`` stays light)::
 
-- ``config``: where the data and the model cache live.
-- ``landmarks``: landmark schemes (point count, drawing connectivity, groups).
-- ``datasets``: readers for ``.asf`` (IMM) and ``.pts`` (300-W) annotations.
-- ``procrustes`` and ``pca``: the shape-analysis building blocks.
-- ``shape_model``, ``texture_model``, ``combined_model``: the three models.
-- ``reference_frame`` and ``warp``: the piecewise-affine warp.
-- ``aam``: the trained model as one object, with save and load in ``model_file``.
+    from aamcore import FaceTracker
+    for result in FaceTracker().process_video("clip.mp4"):
+        print(result.to_dict())
+
+The stages, one package each (see ARCHITECTURE.md): ``io`` (datasets, images,
+video, per-frame results), ``detection``, ``model``, ``warp``, ``fitting``,
+``pose``, ``expression``, ``ar``, ``evaluation``, ``synth``; ``smoothing`` and
+``tracker`` (the API) on top; ``defaults`` and ``config`` for settings.
 """
 
-__version__ = "0.1.0"
+from __future__ import annotations
+
+from typing import Any
+
+__version__ = "0.2.0"
+__all__ = ["FaceResult", "FaceTracker"]
+
+
+def __getattr__(name: str) -> Any:
+    if name in __all__:
+        from aamcore import tracker
+
+        return getattr(tracker, name)
+    raise AttributeError(f"module 'aamcore' has no attribute {name!r}")

@@ -13,6 +13,9 @@ FAILURE_TEST = "chi2"
 """How a failed fit is recognised (see :class:`aamcore.fitting.failure.FailureTest`)."""
 FOV_DEG = 60.0
 """Horizontal field of view assumed for a camera without a calibration, degrees."""
+DETECTOR = {"scale_factor": 1.2, "min_neighbors": 3, "min_size": (60, 60), "max_side": 320}
+"""Haar detector settings (:class:`aamcore.detection.haar.HaarFaceDetector`): frames are
+searched at most 320 px on their longer side, faces of at least 60 px."""
 MODEL_DATASET = "lfpw"
 """What the default fitting model is trained on."""
 MODEL_UPDATE_IMAGES = 30

@@ -65,6 +65,7 @@ def _fit() -> kinds.Fit:
         failed=False,
         failure_reason="",
         warp_path="gpu",
+        confidence=0.875,
     )
 
 

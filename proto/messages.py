@@ -85,6 +85,8 @@ class Fit(Message):
         Why it failed; empty exactly when ``failed`` is false.
     warp_path : str
         ``"gpu"`` or ``"cpu"``: where the image warp ran.
+    confidence : float
+        How much the fit looks like a face, 0 to 1 (0 without a face or for a failed fit).
     """
 
     KIND: ClassVar[str] = "fit"
@@ -100,6 +102,7 @@ class Fit(Message):
     failed: bool = spec(Bool())
     failure_reason: str = spec(Str())
     warp_path: str = spec(Str(choices=WARP_PATHS))
+    confidence: float = spec(Float(0.0, 1.0))
 
     def _check(self) -> None:
         if len(self.similarity) not in (0, 4):

@@ -118,3 +118,18 @@ def imm_fit_model_path(imm_set, imm_train, tmp_path_factory) -> Path:
 @pytest.fixture(scope="session")
 def imm_fit_model(imm_fit_model_path):
     return FittingModel.load(imm_fit_model_path)
+
+
+@pytest.fixture(scope="session")
+def videos(data_dir: Path) -> Path:
+    return data_dir / "videos"
+
+
+@pytest.fixture(scope="session")
+def single_face(videos: Path) -> Path:
+    return videos / "single_face.mp4"
+
+
+@pytest.fixture(scope="session")
+def no_face(videos: Path) -> Path:
+    return videos / "no_face.mp4"

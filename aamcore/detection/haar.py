@@ -13,6 +13,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from aamcore import defaults
+
 DEFAULT_CASCADE = "haarcascade_frontalface_alt2.xml"
 """Cascade file used by default, from ``cv2.data.haarcascades``."""
 
@@ -134,7 +136,8 @@ class HaarFaceDetector:
         an AAM fit anyway.
     max_side : int, optional
         If given, frames whose longer side exceeds it are downscaled to it
-        before detection (for speed) and the boxes are mapped back.
+        before detection (for speed) and the boxes are mapped back; None
+        searches at full resolution.
     equalize : bool
         Histogram-equalise the grey image before detection.
 
@@ -156,10 +159,10 @@ class HaarFaceDetector:
     def __init__(
         self,
         cascade: str | Path = DEFAULT_CASCADE,
-        scale_factor: float = 1.2,
-        min_neighbors: int = 3,
-        min_size: tuple[int, int] = (60, 60),
-        max_side: int | None = None,
+        scale_factor: float = defaults.DETECTOR["scale_factor"],
+        min_neighbors: int = defaults.DETECTOR["min_neighbors"],
+        min_size: tuple[int, int] = defaults.DETECTOR["min_size"],
+        max_side: int | None = defaults.DETECTOR["max_side"],
         equalize: bool = False,
     ) -> None:
         if not scale_factor > 1.0:

@@ -31,7 +31,20 @@ class FailureTest:
         self.inverse_variances = 1.0 / variances
         from scipy.stats import chi2  # a slow import, kept out of start-up
 
-        self.chi2_limit = float(chi2.ppf(0.997, len(variances)))
+        self._chi2 = chi2(len(variances))
+        self.chi2_limit = float(self._chi2.ppf(0.997))
+
+    def confidence(self, c: np.ndarray) -> float:
+        """How typical the appearance ``c`` is of faces, 0 to 1.
+
+        Twice the chi-square tail probability of its squared Mahalanobis
+        distance, capped at 1: a typical face (distance near its degrees of
+        freedom or less) scores near 1, one at the failure bound 0.006.
+        """
+        if not np.all(np.isfinite(c)):
+            return 0.0
+        d2 = float(np.sum(c * c * self.inverse_variances))
+        return min(1.0, 2.0 * float(self._chi2.sf(d2)))
 
     def __call__(self, c: np.ndarray, points: np.ndarray) -> str:
         """Why the fit ``(c, points)`` has failed, or ``""``."""

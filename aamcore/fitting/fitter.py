@@ -40,9 +40,9 @@ class Fitter:
         self.model = model
         self.aam = model.aam
         self.mapping = model.mapping
-        failure = FailureTest(self.aam.combined.pca.variances, failure_test)
+        self.failure = FailureTest(self.aam.combined.pca.variances, failure_test)
         self.algorithm = make_algorithm(
-            algorithm, model, AlgorithmSettings(failure, warp, max_iterations)
+            algorithm, model, AlgorithmSettings(self.failure, warp, max_iterations)
         )
         self.zero = np.zeros(self.aam.n_appearance)
 
@@ -57,11 +57,15 @@ class Fitter:
     def fit(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> FitResult:
         """Fit from appearance ``c0`` placed by ``start``."""
         shape = self.aam.shape_instance(c0, start)
-        return self.algorithm.run(self.prepare(image, shape), c0, start)
+        return self._rated(self.algorithm.run(self.prepare(image, shape), c0, start))
 
     def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
         """Fit from the previous frame's fit (the algorithm chooses how to start from it)."""
-        return self.algorithm.track(self.prepare(image, previous.points), previous)
+        return self._rated(self.algorithm.track(self.prepare(image, previous.points), previous))
+
+    def _rated(self, result: FitResult) -> FitResult:
+        result.confidence = 0.0 if result.failed else self.failure.confidence(result.c)
+        return result
 
     def fit_shape(self, image: np.ndarray, shape: np.ndarray) -> FitResult:
         """Fit from the mean face placed on a start ``shape`` (N, 2)."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,6 +38,8 @@ class FitResult:
         Time each iteration took.
     errors : list of float
         Texture error after each iteration.
+    confidence : float
+        How much the fit looks like a face, 0 to 1 (set by the fitter's failure test).
     """
 
     points: np.ndarray
@@ -49,6 +52,7 @@ class FitResult:
     reason: str = ""
     iteration_seconds: list[float] = field(default_factory=list)
     errors: list[float] = field(default_factory=list)
+    confidence: float = math.nan
 
     @property
     def ok(self) -> bool:

@@ -9,6 +9,7 @@ library and the stack give the same numbers.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -78,6 +79,10 @@ class HeadPose:
     estimate: PoseEstimate
     camera: CameraIntrinsics
 
+    def with_rotation(self, R: np.ndarray, T: np.ndarray) -> HeadPose:
+        """The same pose with rotation ``R`` (3, 3) and translation ``T`` (3,) (smoothed)."""
+        return HeadPose(dataclasses.replace(self.estimate, R=R, T=T), self.camera)
+
 
 class HeadPoseEstimator:
     """Head pose of 68-point (iBUG) landmarks with the OpenFace mean head.
@@ -108,3 +113,48 @@ class HeadPoseEstimator:
         camera = self.cameras.at(width, height)
         points = self.model.select(np.asarray(landmarks, np.float64))
         return HeadPose(self._posit.estimate(points, camera), camera)
+
+
+class HeadPoseTracker:
+    """The head pose of each frame's landmarks, smoothed over time if asked.
+
+    The pose service and :class:`aamcore.tracker.FaceTracker` both use it.
+
+    Parameters
+    ----------
+    estimator : HeadPoseEstimator
+    smooth : bool
+        Smooth rotation and translation (:class:`aamcore.smoothing.PoseSmoother`).
+    """
+
+    def __init__(self, estimator: HeadPoseEstimator, smooth: bool = False) -> None:
+        from aamcore.smoothing import PoseSmoother
+
+        self.estimator = estimator
+        self.smoother = PoseSmoother() if smooth else None
+
+    def reset(self) -> None:
+        if self.smoother is not None:
+            self.smoother.reset()
+
+    def update(self, landmarks: np.ndarray, width: int, height: int, t: float,
+               fit_failed: bool = False) -> HeadPose:
+        """The pose of ``landmarks`` (N, 2) seen at ``t`` seconds in a ``width`` x ``height``
+        frame; a failed fit's pose starts the smoothing afresh.
+
+        Raises
+        ------
+        PoseError, IntrinsicsError
+            As :meth:`HeadPoseEstimator.estimate`; the smoothing starts afresh.
+        """
+        if fit_failed:
+            self.reset()
+        try:
+            pose = self.estimator.estimate(landmarks, width, height)
+        except ValueError:
+            self.reset()
+            raise
+        if self.smoother is None:
+            return pose
+        R, T = self.smoother(pose.estimate.R, pose.estimate.T, t)
+        return pose.with_rotation(R, T)

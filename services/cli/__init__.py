@@ -21,6 +21,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "services.cli.expression_cmd",
     "services.cli.run_cmd",
     "services.cli.bus_cmd",
+    "services.cli.export_cmd",
     "services.cli.router_cmd",
 )
 

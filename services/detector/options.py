@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from aamcore.defaults import DETECTOR
 from services.bus.options import Options, in_range, option
 
 
@@ -19,8 +20,11 @@ class DetectorOptions(Options):
                          check=in_range(0, 100))
     idle: float = option(1.0, "seconds without a good fit after which to search",
                          check=in_range(0))
-    scale_factor: float = option(1.2, "Haar scale step", check=in_range(1.01, 2.0))
-    min_neighbors: int = option(3, "Haar neighbours a detection needs", check=in_range(0, 50))
-    min_size: int = option(60, "smallest face side, pixels", check=in_range(8, 4096))
-    max_side: int = option(320, "downscale frames to this longer side before detecting "
-                           "(0: never)", check=_max_side_problem)
+    scale_factor: float = option(DETECTOR["scale_factor"], "Haar scale step",
+                                 check=in_range(1.01, 2.0))
+    min_neighbors: int = option(DETECTOR["min_neighbors"], "Haar neighbours a detection needs",
+                                check=in_range(0, 50))
+    min_size: int = option(DETECTOR["min_size"][0], "smallest face side, pixels",
+                           check=in_range(8, 4096))
+    max_side: int = option(DETECTOR["max_side"] or 0, "downscale frames to this longer side "
+                           "before detecting (0: never)", check=_max_side_problem)

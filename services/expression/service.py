@@ -13,12 +13,12 @@ still runs: it takes fits, publishes no expression and says why in its status
 
 from __future__ import annotations
 
-import collections
 from collections.abc import Sequence
 
 import numpy as np
 
 from aamcore.expression import AAMMismatchError, ClassifierFileError, ExpressionClassifier
+from aamcore.expression.recogniser import ExpressionRecogniser
 from aamcore.expression.training import model_fingerprint
 from proto import Expression, Fit
 from services.bus.args import parse_service_args
@@ -42,39 +42,23 @@ def load_classifier(path: str | None, model: str | None) -> tuple[ExpressionClas
     return classifier, ""
 
 
-class Smoother:
-    """Mean of the last ``n`` score vectors, restarted after a gap in good fits."""
+def expression_message(svc: Service, fit: Fit, recogniser: ExpressionRecogniser) -> Expression:
+    """The expression of one good fit.
 
-    def __init__(self, n: int) -> None:
-        if n < 1:
-            raise ValueError(f"--smooth must be >= 1, got {n}")
-        self._scores: collections.deque[np.ndarray] = collections.deque(maxlen=n)
-        self._last_index = -2
-
-    def add(self, frame_index: int, scores: np.ndarray) -> tuple[np.ndarray, bool]:
-        """The smoothed scores with this frame's, and whether more than one frame went in."""
-        if frame_index != self._last_index + 1:
-            self._scores.clear()
-        self._last_index = frame_index
-        self._scores.append(np.asarray(scores, np.float64))
-        return np.mean(self._scores, axis=0), len(self._scores) > 1
-
-
-def expression_message(
-    svc: Service, fit: Fit, classifier: ExpressionClassifier, smoother: Smoother
-) -> Expression:
-    """The expression of one good fit."""
-    _, scores = classifier.classify(np.asarray(fit.appearance, np.float64))
-    scores, smoothed = smoother.add(fit.header.frame_index, scores)
-    label = classifier.class_names[int(np.argmax(scores))]
-    return Expression(svc.header_for(fit), label, classifier.class_names,
-                      scores.astype(np.float32), smoothed)
+    Raises
+    ------
+    ValueError
+        For an appearance vector of another length, or a non-finite one.
+    """
+    found = recogniser.recognise(fit.header.frame_index, np.asarray(fit.appearance))
+    return Expression(svc.header_for(fit), found.label, found.class_names,
+                      found.scores.astype(np.float32), found.smoothed)
 
 
 def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
           opts: ExpressionOptions) -> None:
     """Classify fits until stopped."""
-    smoother = Smoother(opts.smooth)
+    recogniser = ExpressionRecogniser(classifier, opts.smooth) if classifier else None
     fits = svc.messages("fit", capacity=opts.capacity)
     if classifier is None:
         svc.log.error("%s; running without expressions", why)
@@ -85,10 +69,10 @@ def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
     for got in fits:
         fit = got.message
         assert isinstance(fit, Fit)
-        if classifier is None or fit.failed:
+        if recogniser is None or fit.failed:
             continue
         try:
-            message = expression_message(svc, fit, classifier, smoother)
+            message = expression_message(svc, fit, recogniser)
         except ValueError as exc:  # an appearance vector of another length or non-finite
             svc.reject("fit", f"not classified: {exc}")
             continue

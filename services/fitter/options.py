@@ -34,3 +34,4 @@ class FitterOptions(Options):
                               check=in_range(0))
     capacity: int = option(2, "latest frames kept while busy (older ones are dropped)",
                            check=in_range(1, 1024))
+    smooth: bool = option(True, "smooth the landmarks over time (One Euro filter)")

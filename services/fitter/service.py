@@ -23,6 +23,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +34,7 @@ from aamcore.fitting.result import FitResult
 from aamcore.fitting.tracker import Tracker
 from aamcore.fitting.training.prepare import default_model_path
 from aamcore.model.file import ModelFileError
+from aamcore.smoothing import LandmarkSmoother
 from aamcore.warp.worker import make_warp
 from proto import Fit, Frame, Header, ProtoError
 from services.bus.args import parse_service_args
@@ -62,7 +64,7 @@ def fit_message(header: Header, result: FitResult | None, scheme: str, warp_path
     width, height = size
     if result is None:
         return Fit(header, scheme, EMPTY_POINTS, EMPTY, EMPTY, width, height, math.nan, 0,
-                   False, True, NO_FACE, warp_path)
+                   False, True, NO_FACE, warp_path, 0.0)
     sim = result.similarity
     similarity = np.array([sim.a, sim.b, sim.tx, sim.ty])
     finite = bool(np.all(np.isfinite(result.points)) and np.all(np.isfinite(result.c))
@@ -80,19 +82,22 @@ def fit_message(header: Header, result: FitResult | None, scheme: str, warp_path
         int(result.iterations),
         not failed and result.converged,
         failed, reason if failed else "", warp_path,
+        0.0 if failed or not math.isfinite(result.confidence) else float(result.confidence),
     )
 
 
 class FrameTracker:
-    """Turns frame messages into fits, one per frame."""
+    """Turns frame messages into fits, one per frame (landmarks smoothed if asked, as
+    :meth:`aamcore.tracker.FaceTracker.smooth_landmarks` does)."""
 
     def __init__(self, svc: Service, fitter: Fitter, warp_path: str,
-                 detector: ServiceDetector) -> None:
+                 detector: ServiceDetector, smooth: bool) -> None:
         self.svc = svc
         self.scheme = fitter.aam.scheme.name
         self.tracker = Tracker(fitter, detector)
         self.detector = detector
         self.warp_path = warp_path
+        self.smoother = LandmarkSmoother() if smooth else None
         self._run: str | None = None
         self._size: tuple[int, int] = (0, 0)
         self._last_index = -1
@@ -110,21 +115,33 @@ class FrameTracker:
             return None
         self.detector.set_frame(frame, got.payload)
         result = self.tracker.track(image)
+        if self.smoother is not None:
+            if result is None:
+                self.smoother.reset()
+            else:
+                t = frame.header.capture_time_ns / 1e9
+                # A copy: the tracker goes on from the raw fit, as the library's does.
+                result = replace(result, points=self.smoother.update(result.points, t, result.ok))
         return fit_message(self.svc.header_for(frame), result, self.scheme, self.warp_path,
                            self._size)
+
+    def reset(self) -> None:
+        self.tracker.reset()
+        if self.smoother is not None:
+            self.smoother.reset()
 
     def _accept(self, frame: Frame) -> bool:
         """A new run starts afresh with its own frame size; within a run, sizes must agree."""
         size, header = (frame.width, frame.height), frame.header
         if header.run_id != self._run:
             self._run, self._size, self._last_index = header.run_id, size, -1
-            self.tracker.reset()
+            self.reset()
         elif size != self._size:
             self.svc.reject("frame", f"frame {header.frame_index} is {size[0]} x {size[1]}, the "
                             f"frames of run {self._run!r} are {self._size[0]} x {self._size[1]}")
             return False
         if header.frame_index <= self._last_index:
-            self.tracker.reset()  # the source went back: the last fit is not this frame's past
+            self.reset()  # the source went back: the last fit is not this frame's past
         self._last_index = header.frame_index
         return True
 
@@ -142,7 +159,7 @@ def warm_up(fitter: Fitter) -> None:
 def serve(svc: Service, fitter: Fitter, warp_path: str, opts: FitterOptions) -> None:
     """Fit frames until stopped."""
     detector = ServiceDetector(svc, opts.detect_timeout, opts.local_for)
-    tracker = FrameTracker(svc, fitter, warp_path, detector)
+    tracker = FrameTracker(svc, fitter, warp_path, detector, opts.smooth)
     frames = svc.messages("frame", capacity=opts.capacity, count_lost=True)
     svc.ready(f"{fitter.name}, warp {warp_path}")
     for got in frames:

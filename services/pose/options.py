@@ -17,6 +17,7 @@ class PoseOptions(Options):
     calibration: str | None = option(None, "camera calibration file (.yaml, .xml, .json)",
                                      metavar="FILE")
     capacity: int = option(8, "latest fits kept while busy", check=in_range(1, 1024))
+    smooth: bool = option(True, "smooth the pose over time (One Euro filter)")
 
     def __post_init__(self) -> None:
         super().__post_init__()

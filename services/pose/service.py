@@ -15,7 +15,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from aamcore.pose import IntrinsicsError, PoseError
-from aamcore.pose.estimator import Cameras, HeadPoseEstimator
+from aamcore.pose.estimator import Cameras, HeadPoseEstimator, HeadPoseTracker
 from proto import Fit, HeadPose, ProtoError
 from services.bus.args import parse_service_args
 from services.bus.process import init_process
@@ -25,7 +25,7 @@ from services.pose.options import PoseOptions
 NAME = "pose"
 
 
-def pose_message(svc: Service, fit: Fit, estimator: HeadPoseEstimator) -> HeadPose:
+def pose_message(svc: Service, fit: Fit, poses: HeadPoseTracker) -> HeadPose:
     """The pose message of one fit with landmarks.
 
     Raises
@@ -33,30 +33,33 @@ def pose_message(svc: Service, fit: Fit, estimator: HeadPoseEstimator) -> HeadPo
     PoseError, IntrinsicsError
         When no pose can be estimated from it.
     """
-    pose = estimator.estimate(fit.landmarks, fit.image_width, fit.image_height)
+    t = fit.header.capture_time_ns / 1e9
+    pose = poses.update(fit.landmarks, fit.image_width, fit.image_height, t, fit.failed)
     est, cam = pose.estimate, pose.camera
     roll, pitch, yaw = est.rpy
     return HeadPose(
         svc.header_for(fit), est.R, est.T, float(roll), float(pitch), float(yaw), cam.K,
-        fit.image_width, fit.image_height, estimator.cameras.source, int(est.iterations),
-        bool(est.reliable and not fit.failed),
+        fit.image_width, fit.image_height, poses.estimator.cameras.source,
+        int(est.iterations), bool(est.reliable and not fit.failed),
     )
 
 
-def serve(svc: Service, estimator: HeadPoseEstimator, capacity: int) -> None:
+def serve(svc: Service, poses: HeadPoseTracker, capacity: int) -> None:
     """Estimate poses until stopped."""
     no_face = 0
     fits = svc.messages("fit", capacity=capacity)
+    estimator = poses.estimator
     svc.ready(f"head model {estimator.model.name}, camera {estimator.cameras.source}")
     for got in fits:
         fit = got.message
         assert isinstance(fit, Fit)
         if len(fit.landmarks) == 0:
+            poses.reset()
             no_face += 1
             svc.set_state("running", f"{no_face} fits without a face")
             continue
         try:
-            svc.publish(pose_message(svc, fit, estimator))
+            svc.publish(pose_message(svc, fit, poses))
         except (PoseError, IntrinsicsError, ProtoError) as exc:
             svc.reject("fit", f"no pose: {exc}")
 
@@ -67,12 +70,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     log = init_process(NAME, args.verbose)
     opts: PoseOptions = args.options
     try:
-        estimator = HeadPoseEstimator(Cameras(opts.fov, opts.calibration))
+        poses = HeadPoseTracker(HeadPoseEstimator(Cameras(opts.fov, opts.calibration)),
+                                opts.smooth)
     except (PoseError, IntrinsicsError, OSError) as exc:
         log.error("cannot set up head pose: %s", exc)
         return 1
     with Service(NAME, args.bus) as svc:
-        serve(svc, estimator, opts.capacity)
+        serve(svc, poses, opts.capacity)
     return 0
 
 

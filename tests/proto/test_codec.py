@@ -189,7 +189,7 @@ def largest_messages() -> list[Message]:
         FaceBoxes(header, 4096, 4096, np.zeros((MAX_DIM, 4)), side),
         Fit(
             header, text, np.zeros((MAX_DIM, 2)), side, np.ones(4), 4096, 4096, 1.0, MAX_INT, True,
-            True, text, "cpu",
+            True, text, "cpu", 1.0,
         ),
         Expression(header, names[0], names, np.zeros(MAX_LIST_LEN), smoothed=True),
         Status(header, "s" * 64, "running", *[MAX_INT] * 6, 1.0, 1.0, MAX_INT, text),

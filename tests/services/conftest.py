@@ -17,21 +17,6 @@ from services.stack.launcher import free_port
 from services.stack.options import StackOptions, parse_run_args
 
 
-@pytest.fixture(scope="session")
-def videos(data_dir: Path) -> Path:
-    return data_dir / "videos"
-
-
-@pytest.fixture(scope="session")
-def single_face(videos: Path) -> Path:
-    return videos / "single_face.mp4"
-
-
-@pytest.fixture(scope="session")
-def no_face(videos: Path) -> Path:
-    return videos / "no_face.mp4"
-
-
 def run_argv(video: Path, **kw: object) -> list[str]:
     """``aamtrack run`` arguments of ``video`` and options given by field name."""
     argv = ["--video", str(video)]

@@ -20,7 +20,7 @@ from aamcore.model.cache import cache_key, cached_file, training_samples
 from aamcore.model.training import TrainConfig, train_aam
 
 log = logging.getLogger(__name__)
-RECIPE = "fitting v5"
+RECIPE = "fitting v6"
 """Names the training below in the cache key: change it when the training changes."""
 
 

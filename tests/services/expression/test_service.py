@@ -9,10 +9,10 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from aamcore.config import REPO_ROOT
 from aamcore.detection.haar import HaarFaceDetector
+from aamcore.expression.recogniser import ExpressionRecogniser
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
 from aamcore.io.jaffe import load_jaffe
@@ -21,7 +21,7 @@ from proto.keys import status_key
 from services.bus.connection import BusOptions
 from services.bus.options import options_argv
 from services.bus.session import Service
-from services.expression.service import Smoother, expression_message, load_classifier
+from services.expression.service import expression_message, load_classifier
 
 
 def happy_fit(model_path: Path, data_dir: Path, index: int) -> Fit:
@@ -33,7 +33,8 @@ def happy_fit(model_path: Path, data_dir: Path, index: int) -> Fit:
     sim = result.similarity
     return Fit(Header.now("cam0", index, "fitter"), "ibug68", result.points.astype(np.float32),
                result.c.astype(np.float32), np.array([sim.a, sim.b, sim.tx, sim.ty], np.float32),
-               image.shape[1], image.shape[0], result.error, 5, True, False, "", "cpu")
+               image.shape[1], image.shape[0], result.error, 5, True, False, "", "cpu",
+               result.confidence)
 
 
 def test_load_classifier_says_why_there_is_none(
@@ -50,24 +51,13 @@ def test_load_classifier_says_why_there_is_none(
     assert classifier is not None and why == ""
 
 
-def test_smoother_averages_consecutive_frames_and_restarts_after_a_gap() -> None:
-    smoother = Smoother(3)
-    assert smoother.add(0, np.array([1.0, 0.0]))[1] is False
-    mean, smoothed = smoother.add(1, np.array([0.0, 1.0]))
-    assert smoothed and np.allclose(mean, [0.5, 0.5])
-    mean, smoothed = smoother.add(5, np.array([0.0, 3.0]))  # frames 2-4 had no good fit
-    assert not smoothed and np.allclose(mean, [0.0, 3.0])
-    with pytest.raises(ValueError):
-        Smoother(0)
-
-
 def test_a_happy_face_is_classified(
     model_path: Path, classifier_path: Path, data_dir: Path
 ) -> None:
     classifier, _ = load_classifier(str(classifier_path), str(model_path))
     fit = happy_fit(model_path, data_dir, 4)
     with Service("expression", BusOptions("cam0"), handle_signals=False) as svc:
-        message = expression_message(svc, fit, classifier, Smoother(1))
+        message = expression_message(svc, fit, ExpressionRecogniser(classifier))
     assert message.header.frame_index == 4 and not message.smoothed
     assert message.class_names == classifier.class_names and len(message.scores) == 7
     assert message.label == "HA"  # a training face: the classifier has seen it

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from aamcore.io.pts import read_pts
-from aamcore.pose.estimator import Cameras, HeadPoseEstimator
+from aamcore.pose.estimator import Cameras, HeadPoseEstimator, HeadPoseTracker
 from aamcore.pose.head_model import openface68
 from proto import Fit, Header, decode, encode
 from services.bus.connection import BusOptions
@@ -27,7 +27,8 @@ def marked_face(data_dir: Path, name: str) -> tuple[np.ndarray, tuple[int, int]]
 def fit_of(points: np.ndarray, size: tuple[int, int], failed: bool = False) -> Fit:
     return Fit(Header.now("cam0", 9, "fitter", capture_time_ns=123), "ibug68",
                points.astype(np.float32), np.zeros(3, np.float32), np.ones(4, np.float32),
-               size[0], size[1], 0.01, 3, not failed, failed, "lost" if failed else "", "cpu")
+               size[0], size[1], 0.01, 3, not failed, failed, "lost" if failed else "", "cpu",
+               0.0 if failed else 0.9)
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +43,8 @@ def test_pose_of_a_frontal_face_is_in_front_of_the_camera_and_upright(
     points, size = marked_face(data_dir, "einstein")
     model = openface68(rigid_subset=True)
     estimator = HeadPoseEstimator(Cameras(60.0, None), model)
-    pose = decode(encode(pose_message(svc, fit_of(points, size), estimator)), "pose")
+    poses = HeadPoseTracker(estimator)
+    pose = decode(encode(pose_message(svc, fit_of(points, size), poses)), "pose")
     assert pose.header.frame_index == 9 and pose.header.capture_time_ns == 123
     assert pose.reliable and pose.intrinsics_source == "assumed:fov60"
     assert (pose.image_width, pose.image_height) == size
@@ -57,13 +59,15 @@ def test_pose_of_a_frontal_face_is_in_front_of_the_camera_and_upright(
 
 def test_a_failed_fit_gives_an_unreliable_pose(svc: Service, data_dir: Path) -> None:
     points, size = marked_face(data_dir, "breakingbad")
-    pose = pose_message(svc, fit_of(points, size, failed=True), HeadPoseEstimator())
+    poses = HeadPoseTracker(HeadPoseEstimator())
+    pose = pose_message(svc, fit_of(points, size, failed=True), poses)
     assert not pose.reliable
 
 
 def test_the_pose_uses_the_size_of_the_frame_of_its_fit(svc: Service, data_dir: Path) -> None:
     points, size = marked_face(data_dir, "einstein")
     estimator = HeadPoseEstimator()
+    estimator = HeadPoseTracker(estimator)
     near = pose_message(svc, fit_of(points, size), estimator)
     # The same face, as far from the centre, in a frame twice as large: the assumed camera's
     # focal length doubles, so the head is twice as far (and as far off the axis).

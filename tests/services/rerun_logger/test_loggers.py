@@ -159,7 +159,7 @@ def test_fit_logger_draws_unknown_schemes_without_connections(new_recording, rrd
     imm_fit = Fit(golden_fit.header, scheme="imm73", landmarks=imm.points, appearance=np.zeros(3),
                   similarity=np.array([1.0, 0.0, 0.0, 0.0]), image_width=800, image_height=600,
                   texture_error=math.nan, iterations=3, converged=True,
-                  failed=False, failure_reason="", warp_path="gpu")
+                  failed=False, failure_reason="", warp_path="gpu", confidence=0.9)
     _at(rec, 1)
     logger.log(imm_fit)
     rec.close()

@@ -29,7 +29,7 @@ def messages() -> list:
     h = Header.now("cam0", 1, "fitter")
     fit = Fit(h, "ibug68", np.ones((68, 2), np.float32), np.zeros(3, np.float32),
               np.array([1.0, 0.0, 0.0, 0.0], np.float32), 640, 480, 0.5, 4, True, False, "",
-              "gpu")
+              "gpu", 0.9)
     return [fit, EndOfStream(Header.now("cam0", 1, "source"), total_frames=2, reason="end")]
 
 

@@ -1,0 +1,177 @@
+"""Video with exact landmarks on every frame, made from one annotated photograph.
+
+The photo is moved over a 640 x 360 canvas by a smooth random similarity
+(translation, in-plane rotation up to +-30 deg, scale 0.7 to 1.4 of its
+starting size), with brightness changes, motion blur while it moves fast, and
+optionally an occluder: a skin-coloured, hand-sized shape that crosses the
+face for a stretch of frames. Landmarks follow by the same transform, so
+every frame has its ground truth; frames covered by the occluder are flagged.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from aamcore.model.similarity import Similarity
+
+SIZE = (640, 360)
+"""Canvas width and height."""
+FACE_WIDTH = 150.0
+"""Width in pixels of the face's landmark box at scale 1."""
+
+
+@dataclass(frozen=True)
+class MotionSpec:
+    """How a sequence moves.
+
+    Attributes
+    ----------
+    frames : int
+    max_angle_deg : float
+        Largest in-plane rotation.
+    scales : (float, float)
+        Smallest and largest scale, relative to the start.
+    speed : float
+        How fast the random motion changes (cycles over the sequence).
+    brightness : float
+        Amplitude of the brightness changes, grey levels.
+    blur : bool
+        Motion blur along the motion, as long as the frame's displacement.
+    occluder : (int, int) or None
+        First and last frame (inclusive) of the occluder's crossing.
+    noise : float
+        Standard deviation of per-frame sensor noise, grey levels.
+    seed : int
+    """
+
+    frames: int = 150
+    max_angle_deg: float = 30.0
+    scales: tuple[float, float] = (0.7, 1.4)
+    speed: float = 2.0
+    brightness: float = 30.0
+    blur: bool = True
+    occluder: tuple[int, int] | None = None
+    noise: float = 0.0
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class Sequence:
+    """A generated sequence.
+
+    Attributes
+    ----------
+    frames : list of (360, 640, 3) uint8 arrays
+    landmarks : (F, N, 2) float64 array
+        The exact landmarks of every frame.
+    occluded : (F,) bool array
+        Frames where the occluder covers part of the face.
+    """
+
+    frames: list[np.ndarray]
+    landmarks: np.ndarray
+    occluded: np.ndarray
+
+    def write(self, folder: str | Path, fps: float = 30.0) -> Path:
+        """Write ``video.mp4`` and ``truth.npz`` (landmarks, occluded) into ``folder``."""
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        path = folder / "video.mp4"
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, SIZE)
+        for frame in self.frames:
+            writer.write(frame)
+        writer.release()
+        np.savez(folder / "truth.npz", landmarks=self.landmarks, occluded=self.occluded)
+        return path
+
+
+def _smooth_noise(rng: np.random.Generator, n: int, cycles: float) -> np.ndarray:
+    """A smooth random curve (n,) in [-1, 1] with about ``cycles`` oscillations."""
+    t = np.linspace(0.0, 1.0, n)
+    curve = np.zeros(n)
+    for k in range(1, 4):
+        curve += rng.normal() / k * np.sin(2 * np.pi * (cycles * k * t + rng.uniform()))
+    peak = np.abs(curve).max()
+    return curve / peak if peak > 0 else curve
+
+
+def trajectory(spec: MotionSpec, points: np.ndarray) -> list[Similarity]:
+    """Per-frame similarities taking the photo's landmarks ``points`` (N, 2) onto the canvas."""
+    rng = np.random.default_rng(spec.seed)
+    n = spec.frames
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    base = FACE_WIDTH / float(hi[0] - lo[0])
+    centre = (lo + hi) / 2
+    log_lo, log_hi = np.log(spec.scales[0]), np.log(spec.scales[1])
+    scale = np.exp((log_lo + log_hi) / 2 + (log_hi - log_lo) / 2 * _smooth_noise(rng, n, 1.0))
+    angle = np.radians(spec.max_angle_deg) * _smooth_noise(rng, n, spec.speed)
+    margin = np.array([SIZE[0], SIZE[1]]) / 2 - FACE_WIDTH * 0.8
+    shift = np.stack([margin[0] * _smooth_noise(rng, n, spec.speed),
+                      margin[1] * _smooth_noise(rng, n, spec.speed)], axis=1)
+    out = []
+    for k in range(n):
+        s = Similarity.from_scale_angle(base * scale[k], angle[k])
+        target = np.array(SIZE) / 2 + shift[k]
+        moved = s.apply(centre[None])[0]
+        out.append(Similarity(s.a, s.b, target[0] - moved[0], target[1] - moved[1]))
+    return out
+
+
+def _occluder(frame: np.ndarray, k: int, span: tuple[int, int], box: np.ndarray) -> bool:
+    """Draw the hand at frame ``k`` of its crossing ``span`` over a face ``box``; whether it
+    covers the face."""
+    first, last = span
+    if not first <= k <= last:
+        return False
+    x0, y0, x1, y1 = box
+    w = x1 - x0
+    progress = (k - first) / max(last - first, 1)
+    cx = x0 - 0.6 * w + progress * 2.2 * w
+    cy = (y0 + y1) / 2 + 0.15 * (y1 - y0)
+    axes = (int(0.45 * w), int(0.6 * (y1 - y0)))
+    cv2.ellipse(frame, (int(cx), int(cy)), axes, 20, 0, 360, (120, 150, 200), -1)
+    fingers = [(int(cx + axes[0] * 0.7), int(cy - axes[1] * (0.5 - 0.25 * j))) for j in range(4)]
+    for fx, fy in fingers:
+        cv2.ellipse(frame, (fx, fy), (int(0.25 * w), int(0.07 * w)), 10, 0, 360,
+                    (115, 145, 195), -1)
+    return cx + axes[0] > x0 and cx - axes[0] < x1
+
+
+def _blur(frame: np.ndarray, motion: np.ndarray) -> np.ndarray:
+    length = int(round(float(np.linalg.norm(motion))))
+    if length < 2:
+        return frame
+    kernel = np.zeros((length, length), np.float32)
+    kernel[length // 2, :] = 1.0 / length
+    angle = np.degrees(np.arctan2(motion[1], motion[0]))
+    rot = cv2.getRotationMatrix2D((length / 2 - 0.5, length / 2 - 0.5), -angle, 1.0)
+    kernel = cv2.warpAffine(kernel, rot, (length, length))
+    kernel /= max(float(kernel.sum()), 1e-6)
+    return cv2.filter2D(frame, -1, kernel)
+
+
+def generate(photo: np.ndarray, points: np.ndarray, spec: MotionSpec = MotionSpec()) -> Sequence:
+    """A sequence of ``photo`` (H, W, 3) with its landmarks ``points`` (N, 2) moving as ``spec``."""
+    rng = np.random.default_rng(spec.seed + 1)
+    sims = trajectory(spec, points)
+    light = spec.brightness * _smooth_noise(rng, spec.frames, 1.5)
+    frames, truths, occluded = [], [], []
+    background = cv2.resize(cv2.GaussianBlur(photo, (0, 0), 25), SIZE)
+    for k, sim in enumerate(sims):
+        frame = cv2.warpAffine(photo, sim.matrix, SIZE, dst=background.copy(),
+                               borderMode=cv2.BORDER_TRANSPARENT)
+        truth = sim.apply(points)
+        if spec.blur and k > 0:
+            frame = _blur(frame, truth.mean(axis=0) - truths[-1].mean(axis=0))
+        shade = light[k] + (rng.normal(0, spec.noise, frame.shape) if spec.noise else 0)
+        frame = np.clip(frame.astype(np.float32) + shade, 0, 255).astype(np.uint8)
+        box = np.r_[truth.min(axis=0), truth.max(axis=0)]
+        covered = spec.occluder is not None and _occluder(frame, k, spec.occluder, box)
+        frames.append(frame)
+        truths.append(truth)
+        occluded.append(covered)
+    return Sequence(frames, np.stack(truths), np.array(occluded))

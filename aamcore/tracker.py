@@ -1,0 +1,242 @@
+"""The one-call Python API: a face tracker that returns one result object per frame.
+
+::
+
+    from aamcore import FaceTracker
+
+    tracker = FaceTracker()                      # the default model, trained on first use
+    for result in tracker.process_video("clip.mp4"):
+        if result.success:
+            print(result.frame_index, result.yaw_deg, result.landmarks[30])
+
+It is the stack without the bus: the same fitter, tracker, head-pose
+estimator, smoothing and expression recogniser the services run, so the two
+give the same numbers on the same frames.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aamcore import defaults
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.expression.classifier_file import ExpressionClassifier
+from aamcore.expression.recogniser import ExpressionRecogniser, Recognition
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
+from aamcore.fitting.result import FitResult
+from aamcore.fitting.tracker import Tracker
+from aamcore.model.similarity import Similarity
+from aamcore.pose import IntrinsicsError, PoseError
+from aamcore.pose.estimator import Cameras, HeadPose, HeadPoseEstimator, HeadPoseTracker
+from aamcore.smoothing import LandmarkSmoother
+
+DEFAULT_FPS = 30.0
+"""Frame rate assumed for timestamps when :meth:`FaceTracker.process` is given none."""
+NO_FACE = "no face"
+
+
+@dataclass(frozen=True, eq=False)
+class FaceResult:
+    """What the tracker found in one frame.
+
+    Attributes
+    ----------
+    frame_index : int
+    timestamp : float
+        Seconds (the frame's, or ``frame_index / 30``).
+    success : bool
+        A face was found and its fit passed the failure test.
+    confidence : float
+        How much the fit looks like a face, 0 to 1 (0 without a face).
+    landmarks : (N, 2) float64 array
+        Landmarks in pixels; ``(0, 2)`` without a face.
+    similarity : Similarity or None
+        The 2D placement of the model frame in the image.
+    rotation : (3, 3) array or None
+        Head rotation, model to camera (``X_cam = R X_model + T``).
+    translation_mm : (3,) array or None
+        Head model origin in camera coordinates, millimetres.
+    roll_deg, pitch_deg, yaw_deg : float
+        The rotation as angles (NaN without a pose).
+    pose_reliable : bool
+    expression : str or None
+    expression_scores : dict of str to float
+    reason : str
+        Why there is no face, the fit failed, or there is no pose; empty otherwise.
+    """
+
+    frame_index: int
+    timestamp: float
+    success: bool
+    confidence: float
+    landmarks: np.ndarray
+    similarity: Similarity | None = None
+    rotation: np.ndarray | None = None
+    translation_mm: np.ndarray | None = None
+    roll_deg: float = math.nan
+    pitch_deg: float = math.nan
+    yaw_deg: float = math.nan
+    pose_reliable: bool = False
+    expression: str | None = None
+    expression_scores: dict[str, float] = field(default_factory=dict)
+    reason: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The result as plain JSON-ready data (lists, floats, None for what is missing)."""
+
+        def num(x: float) -> float | None:
+            return None if math.isnan(x) else float(x)
+
+        sim = self.similarity
+        return {
+            "frame": self.frame_index, "timestamp": self.timestamp, "success": self.success,
+            "confidence": float(self.confidence), "landmarks": self.landmarks.tolist(),
+            "similarity": None if sim is None else [sim.a, sim.b, sim.tx, sim.ty],
+            "rotation": None if self.rotation is None else self.rotation.tolist(),
+            "translation_mm": (None if self.translation_mm is None
+                               else self.translation_mm.tolist()),
+            "roll_deg": num(self.roll_deg), "pitch_deg": num(self.pitch_deg),
+            "yaw_deg": num(self.yaw_deg), "pose_reliable": self.pose_reliable,
+            "expression": self.expression, "expression_scores": dict(self.expression_scores),
+            "reason": self.reason,
+        }
+
+
+def _model(model: str | Path | FittingModel | None) -> FittingModel:
+    if isinstance(model, FittingModel):
+        return model
+    if model is None:
+        from aamcore.fitting.training.prepare import default_model_path
+
+        model = default_model_path()
+    return FittingModel.load(model)
+
+
+def _classifier(classifier: str | Path | ExpressionClassifier | None
+                ) -> ExpressionClassifier | None:
+    if classifier is None or isinstance(classifier, ExpressionClassifier):
+        return classifier
+    return ExpressionClassifier.load(classifier)
+
+
+class FaceTracker:
+    """Landmarks, head pose and expression of the face in each frame of a video.
+
+    Parameters
+    ----------
+    model : path or FittingModel, optional
+        The fitting model; the default model (trained and cached on first use) if None.
+    classifier : path or ExpressionClassifier, optional
+        Expression classifier for the model's faces; no expression without one.
+    camera : str or float, optional
+        A calibration file, or a horizontal field of view in degrees
+        (:data:`aamcore.defaults.FOV_DEG` if None).
+    algorithm, failure_test : str
+        As :class:`~aamcore.fitting.fitter.Fitter` takes them.
+    smoothing : bool
+        Smooth landmarks and pose over time (One Euro filter, :mod:`aamcore.smoothing`).
+    """
+
+    def __init__(self, model: str | Path | FittingModel | None = None,
+                 classifier: str | Path | ExpressionClassifier | None = None,
+                 camera: str | float | None = None, *, algorithm: str = defaults.ALGORITHM,
+                 failure_test: str = defaults.FAILURE_TEST, smoothing: bool = False) -> None:
+        self.model = _model(model)
+        fitter = Fitter(self.model, algorithm, failure_test=failure_test)
+        self.tracker = Tracker(fitter, HaarFaceDetector())
+        calibration = camera if isinstance(camera, str | Path) else None
+        fov = float(camera) if isinstance(camera, int | float) else defaults.FOV_DEG
+        cameras = Cameras(fov, str(calibration) if calibration else None)
+        self.pose = HeadPoseTracker(HeadPoseEstimator(cameras), smoothing)
+        loaded = _classifier(classifier)
+        self.expression = ExpressionRecogniser(loaded) if loaded is not None else None
+        self.landmarks = LandmarkSmoother() if smoothing else None
+        self.frames = 0
+
+    def reset(self) -> None:
+        """Forget the face: the next frame starts from a detection."""
+        self.tracker.reset()
+        self.pose.reset()
+        for part in (self.landmarks, self.expression):
+            if part is not None:
+                part.reset()
+
+    def process(self, frame: np.ndarray, timestamp: float | None = None) -> FaceResult:
+        """The result for one frame (BGR or grey uint8), at ``timestamp`` seconds."""
+        index = self.frames
+        self.frames += 1
+        t = index / DEFAULT_FPS if timestamp is None else float(timestamp)
+        fit = self.tracker.track(frame)
+        if fit is None:
+            self.pose.reset()
+            if self.landmarks is not None:
+                self.landmarks.reset()
+            return FaceResult(index, t, False, 0.0, np.zeros((0, 2)), reason=NO_FACE)
+        points = (fit.points if self.landmarks is None
+                  else self.landmarks.update(fit.points, t, fit.ok))
+        try:
+            pose, why = self.pose.update(points, frame.shape[1], frame.shape[0], t,
+                                         fit.failed), ""
+        except (PoseError, IntrinsicsError) as exc:
+            pose, why = None, f"no pose: {exc}"
+        expression = self.recognise(index, fit)
+        return result_of(index, t, fit, points, pose, why, expression)
+
+    def recognise(self, index: int, fit: FitResult) -> Recognition | None:
+        """The expression of a good fit, when a classifier was given."""
+        if self.expression is None or fit.failed:
+            return None
+        try:
+            return self.expression.recognise(index, fit.c)
+        except ValueError:
+            return None
+
+    def process_video(self, path: str | Path) -> Iterator[FaceResult]:
+        """The result of every frame of a video file, timestamps from its frame rate.
+
+        Raises
+        ------
+        OSError
+            When the file cannot be opened (raised at the first ``next``).
+        """
+        import cv2
+
+        capture = cv2.VideoCapture(str(path))
+        if not capture.isOpened():
+            raise OSError(f"{path}: not a video OpenCV can open")
+        fps = capture.get(cv2.CAP_PROP_FPS) or DEFAULT_FPS
+        fps = fps if 1.0 <= fps <= 1000.0 else DEFAULT_FPS
+        self.reset()
+        self.frames = 0
+        try:
+            while True:
+                ok, frame = capture.read()
+                if not ok:
+                    return
+                yield self.process(frame, self.frames / fps)
+        finally:
+            capture.release()
+
+
+def result_of(index: int, t: float, fit: FitResult, points: np.ndarray, pose: HeadPose | None,
+              why: str, expression: Recognition | None) -> FaceResult:
+    """A :class:`FaceResult` of its parts."""
+    reason = fit.reason or why
+    scores = ({} if expression is None
+              else dict(zip(expression.class_names, map(float, expression.scores), strict=True)))
+    if pose is None:
+        return FaceResult(index, t, fit.ok, fit.confidence, points, fit.similarity,
+                          reason=reason, expression=expression and expression.label,
+                          expression_scores=scores)
+    est = pose.estimate
+    roll, pitch, yaw = est.rpy
+    return FaceResult(index, t, fit.ok, fit.confidence, points, fit.similarity, est.R, est.T,
+                      float(roll), float(pitch), float(yaw), bool(est.reliable and fit.ok),
+                      expression and expression.label, scores, reason)

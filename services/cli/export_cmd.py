@@ -1,0 +1,143 @@
+"""``aamtrack export`` and ``aamtrack track``: per-frame results for other tools.
+
+- ``aamtrack export RUN.rec --csv OUT.csv`` (or ``--jsonl OUT.jsonl``): one
+  row per frame of a recording made with ``aamtrack run --record``;
+  ``--rrd OUT.rrd`` replays it into a Rerun recording to view.
+- ``aamtrack track VIDEO --csv OUT.csv``: the same rows straight from a
+  video through the Python API (:class:`aamcore.tracker.FaceTracker`), no bus.
+
+Rows are written as they come: whatever was exported before a damaged record
+or a video that ends mid-frame is kept, and the command says what happened.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``export`` and ``track``."""
+    p = subparsers.add_parser("export", help="a recording's per-frame results as CSV, JSON "
+                              "Lines or a Rerun recording",
+                              description="Write one row per frame of RECORDING.")
+    p.add_argument("recording", type=Path, help="a .rec file of aamtrack run --record")
+    _outputs(p)
+    p.add_argument("--rrd", type=Path, help="replay it into this Rerun recording")
+    p.set_defaults(func=cmd_export)
+    p = subparsers.add_parser("track", help="track a video without the bus and write its "
+                              "per-frame results", description="Run the Python API's "
+                              "FaceTracker on VIDEO.")
+    p.add_argument("video", type=Path)
+    _outputs(p)
+    p.add_argument("--model", help="fitting model file (default: the default model)")
+    p.add_argument("--classifier", help="expression classifier file (default: none)")
+    p.add_argument("--fov", type=float, help="assumed horizontal field of view, degrees")
+    p.add_argument("--calibration", help="camera calibration file")
+    p.add_argument("--smooth", action=argparse.BooleanOptionalAction, default=True,
+                   help="smooth landmarks and pose over time (default on)")
+    p.set_defaults(func=cmd_track)
+
+
+def _outputs(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--csv", type=Path, help="write CSV rows here")
+    p.add_argument("--jsonl", type=Path, help="write JSON Lines here")
+
+
+def _writers(args: argparse.Namespace, n_points: int, class_names: tuple[str, ...]) -> list:
+    from aamcore.io.results import ResultWriter
+
+    return [ResultWriter(path, kind, n_points, class_names)
+            for kind, path in (("csv", args.csv), ("jsonl", args.jsonl)) if path is not None]
+
+
+def _fail(command: str, message: str, code: int) -> int:
+    print(f"aamtrack {command}: error: {message}", file=sys.stderr)
+    return code
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    """``aamtrack export RUN.rec``."""
+    from services.stack.export import results_of
+    from services.stack.recorder import RecordingError, read_recording
+
+    if args.csv is None and args.jsonl is None and args.rrd is None:
+        return _fail("export", "give --csv, --jsonl and/or --rrd", 2)
+    try:
+        recording = read_recording(args.recording)
+    except (RecordingError, OSError) as exc:
+        return _fail("export", str(exc), 2)
+    exported = results_of(recording.messages)
+    writers = _writers(args, exported.n_points, exported.class_names)
+    for writer in writers:
+        with writer:
+            for result in exported.results:
+                writer.write(result)
+    if args.rrd is not None:
+        replay(recording.messages, args.rrd)
+    print(f"exported {len(exported.results)} frames of {args.recording}", file=sys.stderr)
+    if recording.stopped:
+        return _fail("export", f"the recording is damaged; exported what came before: "
+                     f"{recording.stopped}", 1)
+    return 0
+
+
+def replay(messages: list, rrd: Path) -> None:
+    """Log recorded messages into a new ``.rrd`` file."""
+    from services.rerun_logger.blueprint import build_blueprint
+    from services.rerun_logger.dispatch import StreamLogger
+    from services.rerun_logger.recording import open_recording
+    from services.rerun_logger.service import load_head_model
+
+    recording = open_recording(rrd, None, build_blueprint())
+    try:
+        logger = StreamLogger(recording.stream, load_head_model())
+        for msg in messages:
+            logger.log(msg)
+    finally:
+        recording.close()
+
+
+def cmd_track(args: argparse.Namespace) -> int:
+    """``aamtrack track VIDEO``."""
+    if args.csv is None and args.jsonl is None:
+        return _fail("track", "give --csv and/or --jsonl", 2)
+    if not args.video.is_file():
+        return _fail("track", f"{args.video}: no such file", 2)
+    from aamcore.model.file import ModelFileError
+    from aamcore.tracker import FaceTracker
+
+    camera = args.calibration or args.fov
+    try:
+        tracker = FaceTracker(args.model, args.classifier, camera, smoothing=args.smooth)
+    except (ModelFileError, OSError, ValueError) as exc:
+        return _fail("track", str(exc), 2)
+    names = tracker.expression.classifier.class_names if tracker.expression else ()
+    writers = _writers(args, tracker.model.aam.scheme.n_points, names)
+    try:
+        for result in tracker.process_video(args.video):
+            for writer in writers:
+                writer.write(result)
+    except OSError as exc:
+        return _fail("track", str(exc), 2)
+    finally:
+        for writer in writers:
+            writer.close()
+    print(f"tracked {tracker.frames} frames of {args.video}", file=sys.stderr)
+    expected = frame_count(args.video)
+    if tracker.frames == 0 or tracker.frames < expected:
+        return _fail("track", f"{args.video}: the video ended after {tracker.frames} of its "
+                     f"{expected} frames (cut short?); the rows of those frames are written", 1)
+    return 0
+
+
+def frame_count(video: Path) -> int:
+    """The number of frames a video's container announces (0 when it does not say)."""
+    import cv2
+
+    capture = cv2.VideoCapture(str(video))
+    try:
+        return max(int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0), 0)
+    finally:
+        capture.release()

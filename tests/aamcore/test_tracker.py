@@ -1,0 +1,59 @@
+"""aamcore.tracker: the one-call API on a real video, with the small model."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aamcore import FaceResult, FaceTracker
+
+
+@pytest.fixture(scope="module")
+def results(model_path: Path, classifier_path: Path, single_face: Path) -> list[FaceResult]:
+    return list(FaceTracker(model_path, classifier_path).process_video(single_face))
+
+
+def test_every_frame_of_a_face_video_has_landmarks_pose_and_expression(
+    results: list[FaceResult],
+) -> None:
+    assert [r.frame_index for r in results] == list(range(72))
+    assert np.allclose([r.timestamp for r in results], np.arange(72) / 30.0)
+    good = [r for r in results if r.success]
+    assert len(good) >= 70
+    for r in good:
+        assert r.landmarks.shape == (68, 2) and 0.0 < r.confidence <= 1.0
+        assert r.rotation is not None and r.translation_mm is not None and r.pose_reliable
+        assert 200 < r.translation_mm[2] < 2000 and abs(r.yaw_deg) < 45
+        assert r.expression in r.expression_scores and len(r.expression_scores) == 7
+    data = json.loads(json.dumps(results[3].to_dict()))
+    assert data["frame"] == 3 and len(data["landmarks"]) == 68 and len(data["rotation"]) == 3
+
+
+def test_smoothing_reduces_the_frame_to_frame_jitter(
+    model_path: Path, single_face: Path, results: list[FaceResult]
+) -> None:
+    smooth = list(FaceTracker(model_path, smoothing=True).process_video(single_face))
+
+    def jitter(rs: list[FaceResult]) -> float:
+        return float(np.mean([np.linalg.norm(b.landmarks - a.landmarks, axis=1).mean()
+                              for a, b in zip(rs, rs[1:], strict=False)
+                              if a.success and b.success]))
+
+    assert jitter(smooth) < 0.75 * jitter(results)
+    assert smooth[0].expression is None  # no classifier given
+
+
+def test_a_frame_without_a_face_and_a_bad_video(model_path: Path, tmp_path: Path) -> None:
+    tracker = FaceTracker(model_path)
+    empty = tracker.process(np.full((360, 640, 3), 90, np.uint8), timestamp=1.5)
+    assert not empty.success and empty.reason == "no face" and empty.landmarks.shape == (0, 2)
+    assert empty.confidence == 0.0 and math.isnan(empty.yaw_deg) and empty.timestamp == 1.5
+    assert empty.to_dict()["rotation"] is None
+    bad = tmp_path / "bad.mp4"
+    bad.write_bytes(b"not a video")
+    with pytest.raises(OSError, match="not a video"):
+        next(tracker.process_video(bad))

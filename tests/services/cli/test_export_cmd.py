@@ -1,0 +1,108 @@
+"""services.cli.export_cmd: a recording's rows as CSV / JSON Lines / .rrd, and ``track``."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from proto import Fit
+from services.stack.launcher import Stack
+from services.stack.options import StackOptions
+from services.stack.recorder import load_messages
+
+RERUN = Path(sys.executable).with_name("rerun")
+
+
+@pytest.fixture(scope="module")
+def recording(single_face: Path, stack_options: Callable[..., StackOptions],
+              tmp_path_factory: pytest.TempPathFactory) -> Path:
+    rec = tmp_path_factory.mktemp("export") / "run.rec"
+    with Stack(stack_options(single_face, ar=False, record=str(rec))) as stack:
+        assert stack.wait() == "done"
+    return rec
+
+
+def test_a_recording_exports_one_row_per_frame_matching_its_messages(
+    recording: Path, tmp_path: Path, run_cli: Callable[..., subprocess.CompletedProcess[str]],
+) -> None:
+    out_csv, out_jsonl, out_rrd = tmp_path / "run.csv", tmp_path / "run.jsonl", tmp_path / "r.rrd"
+    done = run_cli("export", str(recording), "--csv", str(out_csv), "--jsonl", str(out_jsonl),
+                   "--rrd", str(out_rrd))
+    assert done.returncode == 0, done.stderr
+    messages = load_messages(recording)
+    fits = {m.header.frame_index: m for m in messages if isinstance(m, Fit)}
+    poses = {m.header.frame_index: m for m in messages if m.KIND == "pose"}
+    labels = {m.header.frame_index: m.label for m in messages if m.KIND == "expression"}
+    rows = list(csv.DictReader(out_csv.open()))
+    assert [int(r["frame"]) for r in rows] == sorted(fits) == list(range(72))
+    for r in rows:
+        k = int(r["frame"])
+        fit = fits[k]
+        assert r["success"] == str(int(not fit.failed))
+        assert float(r["confidence"]) == pytest.approx(float(fit.confidence), abs=1e-4)
+        np.testing.assert_allclose([float(r[f"x_{i}"]) for i in range(68)],
+                                   fit.landmarks[:, 0], atol=1e-3)
+        np.testing.assert_allclose([float(r[f"y_{i}"]) for i in range(68)],
+                                   fit.landmarks[:, 1], atol=1e-3)
+        pose = poses[k]
+        np.testing.assert_allclose([float(r[c]) for c in ("pose_Tx", "pose_Ty", "pose_Tz")],
+                                   pose.translation_mm, rtol=1e-5, atol=1e-3)
+        assert float(r["pose_yaw"]) == pytest.approx(pose.yaw_deg, abs=1e-4)
+        assert r["expression"] == labels[k]
+    lines = [json.loads(line) for line in out_jsonl.read_text().splitlines()]
+    assert len(lines) == 72 and lines[10]["expression"] == labels[10]
+    verified = subprocess.run([str(RERUN), "rrd", "verify", str(out_rrd)], capture_output=True)
+    assert verified.returncode == 0
+
+
+def test_a_damaged_recording_keeps_what_came_before_and_exits_1(
+    recording: Path, tmp_path: Path, run_cli: Callable[..., subprocess.CompletedProcess[str]],
+) -> None:
+    cut = tmp_path / "cut.rec"
+    data = recording.read_bytes()
+    cut.write_bytes(data[: len(data) // 2])
+    out = tmp_path / "cut.csv"
+    done = run_cli("export", str(cut), "--csv", str(out))
+    assert done.returncode == 1 and "damaged" in done.stderr and "Traceback" not in done.stderr
+    rows = list(csv.DictReader(out.open()))
+    assert 10 < len(rows) < 72
+    foreign = tmp_path / "foreign.rec"
+    foreign.write_bytes(b"PK\x03\x04 not a recording")
+    done = run_cli("export", str(foreign), "--csv", str(tmp_path / "f.csv"))
+    assert done.returncode == 2 and "not an aamtrack recording" in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_track_writes_the_rows_of_a_video_and_says_when_it_is_cut_short(
+    single_face: Path, model_path: Path, tmp_path: Path,
+    run_cli: Callable[..., subprocess.CompletedProcess[str]],
+) -> None:
+    out = tmp_path / "track.csv"
+    done = run_cli("track", str(single_face), "--csv", str(out), "--model", str(model_path))
+    assert done.returncode == 0, done.stderr
+    rows = list(csv.DictReader(out.open()))
+    assert len(rows) == 72 and sum(r["success"] == "1" for r in rows) >= 70
+    assert all(r["pose_Tz"] for r in rows if r["success"] == "1")
+    avi = tmp_path / "clip.avi"
+    capture = cv2.VideoCapture(str(single_face))
+    writer = cv2.VideoWriter(str(avi), cv2.VideoWriter_fourcc(*"MJPG"), 30, (640, 360))
+    while (frame := capture.read())[0]:
+        writer.write(frame[1])
+    writer.release()
+    cut = tmp_path / "cut.avi"
+    cut.write_bytes(avi.read_bytes()[: avi.stat().st_size // 2])
+    out = tmp_path / "cut.csv"
+    done = run_cli("track", str(cut), "--csv", str(out), "--model", str(model_path))
+    assert done.returncode == 1 and "ended after" in done.stderr
+    assert "Traceback" not in done.stderr
+    assert 10 < len(list(csv.DictReader(out.open()))) < 72
+    done = run_cli("track", str(tmp_path / "missing.mp4"), "--csv", str(out))
+    assert done.returncode == 2 and "no such file" in done.stderr

@@ -1,0 +1,45 @@
+"""The Python API and the stack give the same landmarks and poses on the same frames."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from aamcore import FaceTracker
+from aamcore.io.video import video_frames
+from services.stack.launcher import Stack
+from services.stack.options import StackOptions
+from services.stack.recorder import load_messages
+
+
+def test_library_and_stack_agree_on_every_frame(
+    single_face: Path, model_path: Path, classifier_path: Path, tmp_path: Path,
+    stack_options: Callable[..., StackOptions],
+) -> None:
+    rec = tmp_path / "run.rec"
+    with Stack(stack_options(single_face, ar=False, record=str(rec))) as stack:
+        assert stack.wait() == "done"
+    messages = load_messages(rec)
+    fits = {m.header.frame_index: m for m in messages if m.KIND == "fit"}
+    poses = {m.header.frame_index: m for m in messages if m.KIND == "pose"}
+    expressions = {m.header.frame_index: m for m in messages if m.KIND == "expression"}
+    assert sorted(fits) == list(range(72))
+    # The stack smooths by default; the library is given the same frames and capture times.
+    tracker = FaceTracker(model_path, classifier_path, smoothing=True)
+    for k, frame in enumerate(video_frames(single_face)):
+        fit = fits[k]
+        result = tracker.process(frame, fit.header.capture_time_ns / 1e9)
+        assert result.success == (not fit.failed), k
+        np.testing.assert_allclose(result.landmarks, fit.landmarks, atol=1e-3, err_msg=str(k))
+        if k in poses:
+            pose = poses[k]
+            np.testing.assert_allclose(result.rotation, pose.rotation, atol=1e-5)
+            np.testing.assert_allclose(result.translation_mm, pose.translation_mm, atol=1e-2)
+            assert result.pose_reliable == pose.reliable
+        if k in expressions:
+            assert result.expression == expressions[k].label
+            np.testing.assert_allclose(
+                [result.expression_scores[c] for c in expressions[k].class_names],
+                expressions[k].scores, atol=1e-5)
