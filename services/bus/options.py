@@ -22,7 +22,7 @@ import math
 import os
 import types
 import typing
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Self
 
@@ -31,7 +31,17 @@ Check = Callable[[Any], str]
 
 
 class OptionError(ValueError):
-    """An option's value is not acceptable; the message names the option."""
+    """An option's value is not acceptable; the message names the option.
+
+    Attributes
+    ----------
+    option : str or None
+        The field name of the option, when one option is at fault.
+    """
+
+    def __init__(self, message: str, option: str | None = None) -> None:
+        super().__init__(message)
+        self.option = option
 
 
 @dataclass(frozen=True)
@@ -42,6 +52,8 @@ class _Meta:
     env: str | None
     check: Check | None
     flag: str | None
+    const: Any = None
+    aliases: tuple[str, ...] = ()
 
 
 def option(
@@ -53,6 +65,8 @@ def option(
     env: str | None = None,
     check: Check | None = None,
     flag: str | None = None,
+    const: Any = None,
+    aliases: Sequence[str] = (),
 ) -> Any:
     """A dataclass field that is also a command-line option ``--name-with-dashes``.
 
@@ -69,8 +83,14 @@ def option(
         ``check(value) -> problem`` (``""`` when fine).
     flag : str, optional
         The flag, when not ``--`` and the field name with dashes.
+    const : object, optional
+        The value of the flag given without one (the value is then optional);
+        for options that take a value (not booleans or lists).
+    aliases : sequence of str
+        Other flags that give the same option (e.g. ``--save`` for ``--rrd``).
     """
-    meta = _Meta(help, tuple(choices) if choices is not None else None, metavar, env, check, flag)
+    meta = _Meta(help, tuple(choices) if choices is not None else None, metavar, env, check, flag,
+                 const, tuple(aliases))
     return dataclasses.field(default=default, metadata={"option": meta})
 
 
@@ -100,10 +120,10 @@ class Options:
             value = getattr(self, f.name)
             if meta.choices is not None and value is not None and value not in meta.choices:
                 raise OptionError(f"{flag_of(f)} {value!r}: choose one of "
-                                  f"{', '.join(map(str, meta.choices))}")
+                                  f"{', '.join(map(str, meta.choices))}", f.name)
             problem = meta.check(value) if meta.check else ""
             if problem:
-                raise OptionError(f"{flag_of(f)} {value!r}: {problem}")
+                raise OptionError(f"{flag_of(f)} {value!r}: {problem}", f.name)
 
     def replace(self, **changes: Any) -> Self:
         """A copy with ``changes``, checked again."""
@@ -140,13 +160,22 @@ def _base_type(hint: Any) -> type:
 
 
 def add_options(
-    parser: argparse.ArgumentParser | Any, cls: type[Options], only: Sequence[str] | None = None
+    parser: argparse.ArgumentParser | Any,
+    cls: type[Options],
+    only: Sequence[str] | None = None,
+    flags: Mapping[str, Sequence[str]] | None = None,
 ) -> None:
-    """Add the options of ``cls`` (those named in ``only``) to ``parser`` or an argument group."""
+    """Add the options of ``cls`` (those named in ``only``) to ``parser`` or an argument group.
+
+    ``flags`` gives some options other flags than their own (and their
+    aliases), by field name: ``{"viewer": ("--connect",)}``.
+    """
     for f, kind, meta in option_fields(cls, only):
         text = meta.help
         if f.default not in (None, (), False, ""):
             text += f" (default {f.default})"
+        if meta.const is not None:
+            text += f" (without a value: {meta.const})"
         if meta.env:
             text += f" [env {meta.env}]"
         kwargs: dict[str, Any] = {"dest": f.name, "default": None, "help": text}
@@ -156,7 +185,10 @@ def add_options(
             kwargs.update(action="extend", type=_comma_list, metavar=meta.metavar or "VALUE")
         else:
             kwargs.update(type=kind, metavar=meta.metavar, choices=meta.choices)
-        parser.add_argument(flag_of(f), **kwargs)
+            if meta.const is not None:
+                kwargs.update(nargs="?", const=meta.const)
+        names = (flags or {}).get(f.name) or (flag_of(f), *meta.aliases)
+        parser.add_argument(*names, **kwargs)
 
 
 def _comma_list(text: str) -> list[str]:
@@ -183,12 +215,14 @@ def options_from(
     args: argparse.Namespace | None = None,
     only: Sequence[str] | None = None,
     base: Options | None = None,
+    flags: Mapping[str, Sequence[str]] | None = None,
     **given: Any,
 ) -> Any:
     """Build ``cls`` from parsed arguments, then the environment, then ``base`` or the defaults.
 
     Only the options named in ``only`` are read from ``args``; keyword
-    arguments override everything.
+    arguments override everything. ``flags``, as given to :func:`add_options`,
+    names an option at fault by the flag it was given with.
 
     Raises
     ------
@@ -202,7 +236,14 @@ def options_from(
         if value is not None:
             values[f.name] = tuple(value) if kind is tuple else value
     values.update(given)
-    return cls(**values)
+    try:
+        return cls(**values)
+    except OptionError as exc:
+        names = (flags or {}).get(exc.option or "")
+        if not names:
+            raise
+        own = flag_of(next(f for f in dataclasses.fields(cls) if f.name == exc.option))
+        raise OptionError(names[0] + str(exc).removeprefix(own), exc.option) from None
 
 
 def options_argv(opts: Options) -> list[str]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import rerun as rr
 
+from aamcore.ar.glasses_mesh import GlassesMesh
 from aamcore.pose.head_model import HeadModel
 from proto.messages import MESSAGE_TYPES, EndOfStream, Message
 from services.rerun_logger import entities as ent
@@ -29,6 +30,8 @@ class StreamLogger:
         3D head model drawn with the pose (see :class:`PoseLogger`).
     jpeg_quality : int
         JPEG quality for raw frames and overlays.
+    glasses : GlassesMesh, optional
+        AR glasses drawn on the 3D head (see :class:`PoseLogger`).
     """
 
     def __init__(
@@ -36,6 +39,7 @@ class StreamLogger:
         rec: rr.RecordingStream,
         head_model: HeadModel | None = None,
         jpeg_quality: int = DEFAULT_QUALITY,
+        glasses: GlassesMesh | None = None,
     ) -> None:
         self._rec = rec
         classes = LandmarkClasses()
@@ -44,7 +48,7 @@ class StreamLogger:
         self.overlays = loggers.ImageLogger(rec, ent.OVERLAY, jpeg_quality)
         self.boxes = loggers.BoxesLogger(rec)
         self.fits = loggers.FitLogger(rec, classes, series)
-        self.poses = loggers.PoseLogger(rec, classes, series, head_model)
+        self.poses = loggers.PoseLogger(rec, classes, series, head_model, glasses)
         self.expressions = loggers.ExpressionLogger(rec, series)
         self.latency = loggers.LatencyLogger(series)
         self.statuses = loggers.StatusLogger(rec, series)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import rerun as rr
 
+from aamcore.ar.glasses_mesh import LENS_PARTS, OPAQUE_PARTS, GlassesMesh
 from aamcore.pose.head_model import HeadModel
 from proto.messages import Expression, FaceBoxes, Fit, Frame, HeadPose, Message, Overlay, Status
 from services.rerun_logger import entities as ent
@@ -21,18 +22,40 @@ from services.rerun_logger.series import SeriesWriter
 BOX_COLOUR = (255, 200, 0)
 HEAD_AXIS_MM = 60.0
 """Length of the head's drawn axes, millimetres."""
+GLASSES_FRAME_COLOUR = (30, 30, 36)
+"""The glasses' rims, bridge and temples, RGB: near-black, as the AR renderer draws them."""
+GLASSES_LENS_COLOUR = (51, 89, 140, 110)
+"""The glasses' lenses, RGBA: a translucent blue, as the AR renderer draws them."""
 LATENCY_KINDS = ("frame", "boxes", "fit", "pose", "expression", "overlay")
 """Message kinds whose header latency (publish - capture) is a pipeline stage."""
 
 
-def log_landmark_class(
+def log_landmark_classes(
     rec: rr.RecordingStream, classes: LandmarkClasses, scheme: str, n_points: int, failed: bool
-) -> int:
-    """The class id of a scheme's landmarks, logging the annotation context when it is new."""
-    class_id, is_new = classes.class_id(scheme, n_points, failed)
+) -> np.ndarray:
+    """The class id of each of a scheme's landmarks (its facial part's, or the failed class's),
+    logging the annotation context when the scheme is new; ``(n_points,)``."""
+    class_ids, is_new = classes.class_ids(scheme, n_points, failed)
     if is_new:
         rec.log("/", classes.context(), static=True)
-    return class_id
+    return class_ids
+
+
+def glasses_meshes(glasses: GlassesMesh) -> dict[str, rr.Mesh3D]:
+    """The glasses as two meshes, by entity: the frame (opaque parts) and the lenses."""
+    meshes = {}
+    for entity, names, colour in ((ent.GLASSES_FRAME, OPAQUE_PARTS, GLASSES_FRAME_COLOUR),
+                                  (ent.GLASSES_LENSES, LENS_PARTS, GLASSES_LENS_COLOUR)):
+        triangles = np.vstack([glasses.triangles[first:first + count]
+                               for first, count in (glasses.parts[n] for n in names)])
+        used, compact = np.unique(triangles, return_inverse=True)
+        meshes[entity] = rr.Mesh3D(
+            vertex_positions=glasses.vertices[used],
+            vertex_normals=glasses.normals[used],
+            triangle_indices=compact.reshape(-1, 3).astype(np.uint32),
+            albedo_factor=colour,
+        )
+    return meshes
 
 
 class ImageLogger:
@@ -81,9 +104,9 @@ class BoxesLogger:
 class FitLogger:
     """Logs fitted landmarks as keypoints of their scheme, and the fit quality as series.
 
-    Landmarks go to :data:`entities.LANDMARKS` with the class of their scheme
-    (failed fits in a class of their own; a fit without landmarks clears
-    them); texture error, iterations and the
+    Landmarks go to :data:`entities.LANDMARKS`, each with the class of its
+    facial part (coloured by part; a failed fit's all in the failed class of
+    its scheme; a fit without landmarks clears them); texture error, iterations and the
     converged and failed flags go to ``series/fit/*``; a failure is also a
     warning on :data:`entities.EVENTS`.
     """
@@ -101,10 +124,10 @@ class FitLogger:
         if n == 0:  # no face: clear the previous landmarks
             self._rec.log(ent.LANDMARKS, rr.Points2D(np.zeros((0, 2), np.float32)))
         else:
-            class_id = log_landmark_class(self._rec, self._classes, msg.scheme, n, msg.failed)
+            class_ids = log_landmark_classes(self._rec, self._classes, msg.scheme, n, msg.failed)
             self._rec.log(
                 ent.LANDMARKS,
-                rr.Points2D(msg.landmarks, class_ids=class_id, keypoint_ids=np.arange(n)),
+                rr.Points2D(msg.landmarks, class_ids=class_ids, keypoint_ids=np.arange(n)),
             )
         self._series.scalar(f"{ent.FIT_SERIES}/texture_error", msg.texture_error)
         self._series.scalar(f"{ent.FIT_SERIES}/iterations", msg.iterations)
@@ -127,9 +150,11 @@ class PoseLogger:
     head-model to camera coordinates, which is exactly the transform of
     :data:`entities.HEAD` relative to :data:`entities.WORLD`. The head model's
     points are logged once, statically, under the head as keypoints of their
-    scheme, so the annotation context draws the same connections as on the
-    video. The pinhole's image plane is put at the head's depth, where the
-    model's points project onto the fitted landmarks.
+    scheme, so the annotation context draws the same parts and connections as
+    on the video; so are the AR glasses, as meshes in the head model's frame
+    (:data:`entities.GLASSES`), so that they move with the head. The
+    pinhole's image plane is put at the head's depth, where the model's
+    points project onto the fitted landmarks.
 
     Parameters
     ----------
@@ -140,6 +165,9 @@ class PoseLogger:
     head_model : HeadModel, optional
         3D points of a landmark scheme (e.g. ``aamcore.pose.head_model.openface68()``);
         ``None`` logs the pose without a model.
+    glasses : GlassesMesh, optional
+        The glasses in the head model's frame (e.g.
+        ``aamcore.ar.glasses_mesh.mean_head_glasses()``); ``None`` draws none.
     """
 
     def __init__(
@@ -148,11 +176,13 @@ class PoseLogger:
         classes: LandmarkClasses,
         series: SeriesWriter,
         head_model: HeadModel | None = None,
+        glasses: GlassesMesh | None = None,
     ) -> None:
         self._rec = rec
         self._classes = classes
         self._series = series
         self._head_model = head_model
+        self._glasses = glasses
         self._static_logged = False
 
     def _log_static(self) -> None:
@@ -160,14 +190,18 @@ class PoseLogger:
         self._rec.log(ent.HEAD, rr.TransformAxes3D(HEAD_AXIS_MM), static=True)
         model = self._head_model
         if model is not None:
-            class_id = log_landmark_class(
+            class_ids = log_landmark_classes(
                 self._rec, self._classes, model.scheme, model.n_landmarks, failed=False
             )
             self._rec.log(
                 ent.HEAD_MODEL,
-                rr.Points3D(model.points, class_ids=class_id, keypoint_ids=model.indices),
+                rr.Points3D(model.points, class_ids=class_ids[model.indices],
+                            keypoint_ids=model.indices),
                 static=True,
             )
+        if self._glasses is not None:
+            for entity, mesh in glasses_meshes(self._glasses).items():
+                self._rec.log(entity, mesh, static=True)
         self._static_logged = True
 
     def log(self, msg: HeadPose) -> None:

@@ -3,7 +3,10 @@
 ``aamtrack service rerun --rrd out.rrd`` subscribes to the stream's frames,
 boxes, fits, poses, expressions, overlays, end of stream and the status of
 every service, and logs them with
-:class:`~services.rerun_logger.dispatch.StreamLogger`.
+:class:`~services.rerun_logger.dispatch.StreamLogger`. The recording goes to
+a file (``--rrd``/``--save``), to a gRPC server of the service's own on
+loopback (``--serve PORT``), to a viewer that runs already (``--viewer
+[URL]``), or to several of them.
 
 - Frames and overlays go through inboxes that keep only the latest few, so a
   logger that cannot keep up skips video rather than falling behind; results
@@ -12,6 +15,12 @@ every service, and logs them with
   ``--idle`` seconds (the results of the last frames come after the end of
   stream message), at most ``--grace`` seconds; on a stop signal it stops at
   once. Either way the recording is flushed and its file closed.
+- With ``--serve``, the service goes on serving after the end of stream, so
+  that viewers can still connect, until a stop signal (SIGINT, SIGTERM) or,
+  with ``--linger S``, for S seconds more; the file is complete once it stops.
+- A viewer given with ``--viewer`` that does not answer stops the service at
+  start, with one line saying so and exit code 2: nothing is streamed into
+  the void. A viewer that goes away later loses the rest; the file does not.
 - A restarted service never overwrites what its first run wrote: it writes a
   new part beside it (``run.part1.rrd``, ...), of the same recording id.
 """
@@ -24,6 +33,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from aamcore.ar.glasses_mesh import GlassesMesh, mean_head_glasses
 from aamcore.pose.errors import PoseError
 from aamcore.pose.head_model import HeadModel, openface68
 from proto.keys import status_wildcard
@@ -34,7 +44,7 @@ from services.bus.session import Service
 from services.rerun_logger.blueprint import build_blueprint
 from services.rerun_logger.dispatch import StreamLogger
 from services.rerun_logger.options import RerunOptions
-from services.rerun_logger.recording import open_recording
+from services.rerun_logger.recording import Recording, open_recording
 
 NAME = "rerun"
 """Service name: status on ``aamtrack/<stream>/status/rerun``."""
@@ -54,6 +64,17 @@ def load_head_model(enabled: bool = True) -> HeadModel | None:
         return openface68()
     except PoseError as exc:
         _log.warning("no head model drawn: %s", exc)
+        return None
+
+
+def load_glasses(enabled: bool = True) -> GlassesMesh | None:
+    """The AR glasses on the mean head, or ``None`` if disabled or not buildable."""
+    if not enabled:
+        return None
+    try:
+        return mean_head_glasses()
+    except (PoseError, ValueError, OSError) as exc:
+        _log.warning("no glasses drawn: %s", exc)
         return None
 
 
@@ -93,33 +114,47 @@ def log_stream(svc: Service, logger: StreamLogger, opts: RerunOptions) -> None:
             return
 
 
+def serve_after_end(svc: Service, recording: Recording, linger: float | None) -> None:
+    """Go on serving the recording after the end of stream: until stopped, or ``linger`` s."""
+    recording.flush()  # everything logged is in the file and the server's buffer
+    how = "until stopped" if linger is None else f"for {linger:g} s more"
+    svc.set_state("waiting", f"end of stream; serving {recording.serve_uri} {how}")
+    _log.info("end of stream; serving the recording %s: rerun --connect %s (Ctrl-C to stop)",
+              how, recording.serve_uri)
+    if linger is None:
+        while not svc.wait(3600.0):
+            pass
+    else:
+        svc.wait(linger)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the service; return the exit code (0 after end of stream or a stop signal)."""
-    args = parse_service_args(NAME, "Log a stream's messages to Rerun (.rrd file and/or "
-                              "viewer).", RerunOptions, argv)
+    args = parse_service_args(NAME, "Log a stream's messages to Rerun (.rrd file, gRPC "
+                              "server and/or running viewer).", RerunOptions, argv)
     opts: RerunOptions = args.options
-    if opts.rrd is None and opts.serve is None:
-        print("aamtrack service rerun: error: give --rrd PATH, --serve PORT, or both",
-              file=sys.stderr)
+    if not opts.has_output:
+        print("aamtrack service rerun: error: give --rrd PATH, --serve PORT and/or "
+              "--viewer [URL]", file=sys.stderr)
         return 2
     init_process(NAME, args.verbose)
     with Service(NAME, args.bus) as svc:
         rrd = part_path(opts.rrd, svc.restarts) if opts.rrd else None
         try:
             recording = open_recording(rrd, opts.serve, build_blueprint(),
-                                       recording_id=args.bus.run_id or None)
+                                       recording_id=args.bus.run_id or None,
+                                       viewer_url=opts.viewer)
         except (ValueError, OSError, RuntimeError) as exc:
             _log.error("cannot open the recording: %s", exc)
             svc.set_state("failed", f"cannot open the recording: {exc}")
             return 2
         try:
             logger = StreamLogger(recording.stream, load_head_model(opts.head_model),
-                                  opts.jpeg_quality)
+                                  opts.jpeg_quality, load_glasses(opts.glasses))
             log_stream(svc, logger, opts)
-            if opts.serve is not None and opts.linger > 0 and not svc.stopping:
-                _log.info("serving for %.1f s more", opts.linger)
-                svc.wait(opts.linger)
             _log.info("logged %s", logger.counts)
+            if recording.serve_uri is not None and not svc.stopping:
+                serve_after_end(svc, recording, opts.linger)
         finally:
             recording.close()
     if recording.rrd_path is not None:

@@ -18,6 +18,9 @@ The launcher
 5. watches the results and the services' status, restarting a service that
    dies; after end of stream it waits until the last frame's results are in
    and the bus has gone quiet;
+   when the Rerun service serves the recording (``--serve PORT``), it leaves
+   the stack running after that, says so on stdout and waits for Ctrl-C
+   (or for that service to stop), so that viewers can still connect;
 6. stops every process (SIGTERM, then SIGKILL after a timeout), prints a
    summary and returns 0, or non-zero with a message when the input failed,
    frames were lost, a service could not be kept running, or it was interrupted.
@@ -152,6 +155,19 @@ def wait_for_end(svc: Service, sup: Supervisor, mon: StackMonitor, opts: StackOp
     return "stopped"
 
 
+def serve_until_stopped(svc: Service, sup: Supervisor, port: int) -> str:
+    """After the end of stream, while the rerun service serves on ``port``: wait for a stop
+    (Ctrl-C) or for that service to end; the outcome stays ``done``."""
+    url = f"rerun+http://127.0.0.1:{port}/proxy"
+    print(f"aamtrack run: end of stream; the recording is served at {url} (view it with "
+          f"`rerun --connect {url}`); Ctrl-C to stop", flush=True)
+    while not svc.wait(0.2):
+        sup.check()
+        if sup.exitcode("rerun") == 0 or "rerun" in sup.failed():
+            break
+    return "done"
+
+
 class Stack:
     """The stack's processes and the launcher's view of the bus.
 
@@ -213,8 +229,15 @@ class Stack:
                 f"({', '.join(others)}): stop them first")
 
     def wait(self) -> str:
-        """Watch the run until it ends; the outcome (see :func:`wait_for_end`)."""
+        """Watch the run until it ends; the outcome (see :func:`wait_for_end`).
+
+        A run whose rerun service serves its recording goes on after the end
+        of stream until stopped (see :func:`serve_until_stopped`).
+        """
         self.outcome = wait_for_end(self.service, self.supervisor, self.monitor, self.opts)
+        rerun = self.opts.services.get("rerun")
+        if self.outcome == "done" and getattr(rerun, "serve", None) is not None:
+            self.outcome = serve_until_stopped(self.service, self.supervisor, rerun.serve)
         return self.outcome
 
     def __exit__(self, *exc: object) -> None:
@@ -244,6 +267,7 @@ def prepared(opts: StackOptions) -> StackOptions:
         preflight.check_endpoint(opts.launch.endpoint, explicit=True)
     bus = BusOptions(opts.launch.stream, "peer", connect=(DEFAULT_ENDPOINT,), run_id="run-check")
     preflight.check_service_args(opts, bus)
+    preflight.check_viewer(opts)
     preflight.check_input(opts)
     preflight.check_models(opts)
     return prepare_models(opts)

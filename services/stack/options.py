@@ -30,9 +30,17 @@ RUN_OPTIONS: dict[str, tuple[str, ...] | None] = {
     "fitter": ("model", "model_limit", "model_images", "algorithm", "failure_test", "warp"),
     "pose": ("fov", "calibration"),
     "expression": ("classifier",),
-    "rerun": ("rrd", "serve"),
+    "rerun": ("rrd", "serve", "viewer"),
 }
 """The options of each service that ``aamtrack run`` offers (None: all of them)."""
+RUN_FLAGS: dict[str, dict[str, tuple[str, ...]]] = {
+    "rerun": {"viewer": ("--connect",)},
+}
+"""Flags ``aamtrack run`` gives some of those options instead of the service's own.
+
+``--connect`` of a service is its Zenoh endpoint; ``aamtrack run`` has none,
+and there ``--connect [URL]`` streams to a Rerun viewer, as ``rerun --connect``.
+"""
 ALWAYS = ("detector", "fitter", "pose", "expression")
 """Services every stack runs, beside the source."""
 
@@ -93,7 +101,8 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     """Add the launcher's options and the services' :data:`RUN_OPTIONS` to ``parser``."""
     add_options(parser, LaunchOptions)
     for name, only in RUN_OPTIONS.items():
-        add_options(parser.add_argument_group(name), SERVICES[name].options, only)
+        add_options(parser.add_argument_group(name), SERVICES[name].options, only,
+                    RUN_FLAGS.get(name))
     parser.add_argument("--set", action="append", default=[], metavar="SERVICE:ARG",
                         help="extra argument for one service, e.g. fitter:--detect-timeout=2")
 
@@ -125,14 +134,13 @@ def stack_options(args: argparse.Namespace, base: StackOptions | None = None) ->
     base = base or StackOptions()
     launch = options_from(LaunchOptions, args, base=base.launch)
     every = {name: options_from(info.options, args, RUN_OPTIONS.get(name, ()),
-                                base=base.services.get(name))
+                                base=base.services.get(name), flags=RUN_FLAGS.get(name))
              for name, info in SERVICES.items()}
     if base.services:
         names = list(base.services)
     else:
-        rerun = every["rerun"]
         names = ["source", *ALWAYS, *(["ar"] if launch.ar else []),
-                 *(["rerun"] if rerun.rrd is not None or rerun.serve is not None else [])]
+                 *(["rerun"] if every["rerun"].has_output else [])]
     services = {name: every[name] for name in SERVICES if name in names}
     if "source" in services and not services["source"].has_input:
         raise OptionError("give the input: --video FILE, --camera INDEX or --url URL")

@@ -9,7 +9,8 @@ instead of starting the stack and failing later:
   frame limit;
 - the fitting model (loaded once), the expression classifier (loaded and
   matched to the model) and the camera calibration (read and checked);
-- the endpoint the launcher listens on (free, or given in a form Zenoh reads).
+- the endpoint the launcher listens on (free, or given in a form Zenoh reads);
+- the Rerun viewer the recording streams to (``--connect``): it must answer.
 """
 
 from __future__ import annotations
@@ -113,3 +114,18 @@ def check_endpoint(endpoint: str, explicit: bool) -> None:
         except OSError as exc:
             why = "in use (another run of the stack?)" if explicit else exc.strerror
             raise PreflightError(f"--endpoint {endpoint}: cannot listen there: {why}") from None
+
+
+def check_viewer(opts: StackOptions) -> None:
+    """The running Rerun viewer the rerun service is to stream to answers on its port."""
+    rerun = opts.services.get("rerun")
+    viewer = getattr(rerun, "viewer", None)
+    if viewer is None:
+        return
+    from services.rerun_logger.viewer import ViewerError
+    from services.rerun_logger.viewer import check_viewer as probe
+
+    try:
+        probe(viewer)
+    except ViewerError as exc:
+        raise PreflightError(f"--connect: {exc}") from None

@@ -90,3 +90,52 @@ def test_only_the_named_options_are_read_and_a_base_fills_the_rest() -> None:
     assert not hasattr(args, "name")
     base = Demo(name="base", count=3)
     assert options_from(Demo, args, only=("rate",), base=base) == Demo(5.0, "base", count=3)
+
+
+@dataclass(frozen=True)
+class Outputs(Options):
+    path: str | None = option(None, "a file", metavar="PATH", aliases=("--save",))
+    url: str | None = option(None, "a URL", metavar="URL", const="http://default",
+                             check=lambda v: "" if v is None or "://" in v else "not a URL")
+
+
+def parse_outputs(argv: list[str], flags: dict[str, tuple[str, ...]] | None = None) -> Outputs:
+    parser = argparse.ArgumentParser()
+    add_options(parser, Outputs, flags=flags)
+    return options_from(Outputs, parser.parse_args(argv), flags=flags)
+
+
+def test_an_alias_gives_the_same_option_and_the_argv_uses_the_own_flag() -> None:
+    assert parse_outputs(["--save", "a.rrd"]) == parse_outputs(["--path", "a.rrd"])
+    assert options_argv(parse_outputs(["--save", "a.rrd"])) == ["--path", "a.rrd"]
+
+
+def test_an_option_with_a_const_takes_an_optional_value() -> None:
+    assert parse_outputs([]).url is None
+    assert parse_outputs(["--url"]).url == "http://default"
+    assert parse_outputs(["--url", "--path", "x"]) == Outputs("x", "http://default")
+    assert parse_outputs(["--url", "ftp://here"]).url == "ftp://here"
+    assert options_argv(parse_outputs(["--url"])) == ["--url", "http://default"]
+    parser = argparse.ArgumentParser()
+    add_options(parser, Outputs)
+    assert "(without a value: http://default)" in parser.format_help().replace("\n", " ")
+
+
+def test_other_flags_replace_an_options_own_and_name_it_in_errors() -> None:
+    flags = {"url": ("--connect",)}
+    assert parse_outputs(["--connect"], flags).url == "http://default"
+    assert parse_outputs(["--connect", "a://b", "--save", "p"], flags) == Outputs("p", "a://b")
+    with pytest.raises(SystemExit):
+        parse_outputs(["--url", "a://b"], flags)
+    with pytest.raises(OptionError) as err:
+        parse_outputs(["--connect", "nowhere"], flags)
+    assert str(err.value) == "--connect 'nowhere': not a URL" and err.value.option == "url"
+    with pytest.raises(OptionError, match="^--url 'nowhere': not a URL$"):
+        parse_outputs(["--url", "nowhere"])
+
+
+def test_errors_name_the_field_at_fault() -> None:
+    with pytest.raises(OptionError) as err:
+        Demo(count=0)
+    assert err.value.option == "count"
+    assert OptionError("any").option is None

@@ -1,9 +1,13 @@
-"""Fixtures of the Rerun logger tests: real faces as messages, and reading ``.rrd`` files back."""
+"""Fixtures of the Rerun logger tests: real faces as messages, reading ``.rrd`` files back,
+and real Rerun gRPC servers (viewers without a window) that save what they receive."""
 
 from __future__ import annotations
 
+import socket
 import subprocess
 import sys
+import time
+import warnings
 from collections import defaultdict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -15,6 +19,7 @@ import numpy as np
 import pyarrow as pa
 import pytest
 import rerun as rr
+import rerun_cli
 from rerun.chunk import RrdReader
 from scipy.spatial.transform import Rotation
 
@@ -28,6 +33,8 @@ CAPTURE_NS = 1_750_000_000_000_000_000
 FRAME_NS = 33_333_333
 CLASSES = ("neutral", "happy", "sad", "surprise", "anger", "disgust", "fear")
 RERUN_CLI = Path(sys.executable).with_name("rerun")
+RERUN_BINARY = Path(rerun_cli.__file__).with_name("rerun")
+"""The CLI's executable itself (``RERUN_CLI`` is a Python wrapper that runs it as a child)."""
 
 
 @dataclass
@@ -112,6 +119,108 @@ def verify_rrd(path: Path) -> str:
     )
     assert done.returncode == 0, f"rerun rrd verify failed:\n{done.stdout}\n{done.stderr}"
     return done.stdout + done.stderr
+
+
+def free_port() -> int:
+    """A TCP port free on 127.0.0.1 now."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def wait_until(condition: Callable[[], Any], what: str, timeout: float = 30.0) -> Any:
+    """Poll ``condition`` until it returns something true; fail after ``timeout`` s."""
+    deadline = time.monotonic() + timeout
+    while not (value := condition()):
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.05)
+    return value
+
+
+def port_listens(port: int) -> bool:
+    """Whether something accepts TCP connections on 127.0.0.1:``port``."""
+    try:
+        with socket.create_connection(("127.0.0.1", port), timeout=0.5):
+            return True
+    except OSError:
+        return False
+
+
+class RerunServer:
+    """A real Rerun gRPC server, as a viewer runs one, saving every message it gets to a file.
+
+    ``rerun --save FILE --bind 127.0.0.1 --port PORT`` listens for SDKs on
+    ``url`` and writes what they send as it comes (a file without footer,
+    readable as a stream); with ``source``, it pulls from another server
+    instead, as a viewer connecting to it would.
+    """
+
+    def __init__(self, save: Path, source: str | None = None) -> None:
+        self.save = save
+        self.port = free_port()
+        self.url = f"rerun+http://127.0.0.1:{self.port}/proxy"
+        argv = [str(RERUN_BINARY), "--save", str(save), "--bind", "127.0.0.1",
+                "--port", str(self.port), *([source] if source else [])]
+        self.process = subprocess.Popen(argv, stdout=subprocess.DEVNULL,
+                                        stderr=subprocess.PIPE, text=True)
+        wait_until(lambda: port_listens(self.port) or self.process.poll() is not None,
+                   "the Rerun server to listen")
+        assert self.process.poll() is None, f"rerun server exited: {self.process.stderr.read()}"
+
+    def received(self) -> RrdContent | None:
+        """What the server has written so far, or None while it cannot be read yet."""
+        if not self.save.is_file():
+            return None
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # no footer: the server is still writing
+                return read_rrd(self.save)
+        except Exception:  # a message half written: read again later
+            return None
+
+    def wait_for(self, condition: Callable[[RrdContent], bool], what: str,
+                 timeout: float = 30.0) -> RrdContent:
+        """What the server saved, once it satisfies ``condition``."""
+        def ready() -> RrdContent | None:
+            got = self.received()
+            return got if got is not None and condition(got) else None
+
+        return wait_until(ready, what, timeout)
+
+    def stop(self) -> None:
+        if self.process.poll() is None:
+            self.process.terminate()
+            try:
+                self.process.wait(10)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait(5)
+        if self.process.stderr is not None:
+            self.process.stderr.close()
+
+
+@pytest.fixture
+def rerun_server(tmp_path: Path) -> Iterator[Callable[..., RerunServer]]:
+    """``rerun_server(name="viewer", source=None)``: a started :class:`RerunServer`
+    saving to ``tmp_path / f"{name}.rrd"``; stopped after the test."""
+    started: list[RerunServer] = []
+
+    def make(name: str = "viewer", source: str | None = None) -> RerunServer:
+        started.append(RerunServer(tmp_path / f"{name}.rrd", source))
+        return started[-1]
+
+    yield make
+    for server in started:
+        server.stop()
+
+
+def has_event(text: str) -> Callable[[RrdContent], bool]:
+    """A condition: the recording holds an event whose text contains ``text``."""
+    def check(content: RrdContent) -> bool:
+        rows = content.rows.get("/events", [])
+        return any(text in t for r in rows for t in r.get("TextLog:text", []))
+
+    return check
 
 
 @pytest.fixture(autouse=True, scope="session")

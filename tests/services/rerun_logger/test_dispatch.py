@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from aamcore.ar.glasses_mesh import mean_head_glasses
 from aamcore.pose.head_model import openface68
 from proto.golden import CAPTURE_NS, golden_messages
 from services.rerun_logger import entities as ent
@@ -23,7 +24,7 @@ ENTITY_OF_KIND = {
 def test_every_golden_message_is_logged_at_its_frame(new_recording, rrd_tools):
     read, verify = rrd_tools
     rec = new_recording()
-    logger = StreamLogger(rec.stream, openface68())
+    logger = StreamLogger(rec.stream, openface68(), glasses=mean_head_glasses())
     golden = golden_messages()
     for msg in golden.values():
         logger.log(msg)
@@ -43,6 +44,7 @@ def test_every_golden_message_is_logged_at_its_frame(new_recording, rrd_tools):
         "fitter is running": 999,
     }
     assert "/" + ent.HEAD_MODEL in content.entities
+    assert {"/" + ent.GLASSES_FRAME, "/" + ent.GLASSES_LENSES} <= content.entities
     assert content.mono("/" + ent.LATENCY_SERIES + "/fit", "Scalars:scalars") == [5.0]
 
 

@@ -8,13 +8,14 @@ import cv2
 import numpy as np
 import pytest
 
+from aamcore.ar.glasses_mesh import LENS_PARTS, mean_head_glasses
 from aamcore.io import load_annotated_folder
 from aamcore.io.landmarks import IBUG68
 from aamcore.pose.head_model import openface68
 from proto.golden import golden_messages
 from proto.messages import EndOfStream, Fit
 from services.rerun_logger import entities as ent
-from services.rerun_logger.annotations import LandmarkClasses
+from services.rerun_logger.annotations import PART_COLOURS, PARTS, LandmarkClasses
 from services.rerun_logger.loggers import (
     BoxesLogger,
     ExpressionLogger,
@@ -27,6 +28,17 @@ from services.rerun_logger.loggers import (
 from services.rerun_logger.series import SeriesWriter
 
 LANDMARKS = "/" + ent.LANDMARKS
+IBUG_FAILED = len(PARTS)
+"""Class id of a failed iBUG fit when iBUG is the first scheme (its parts are 0 to 4)."""
+
+
+def part_ids() -> list[int]:
+    """The class id of each iBUG landmark of a good fit: its part's."""
+    ids = [-1] * 68
+    for k, part in enumerate(PARTS):
+        for i in IBUG68.groups[part]:
+            ids[i] = k
+    return ids
 
 
 def _at(rec, index: int) -> None:
@@ -106,16 +118,28 @@ def test_fit_logger_logs_keypoints_of_the_scheme(new_recording, rrd_tools, faces
     for fit, positions in zip(fits, content.values(LANDMARKS, "Points2D:positions"), strict=True):
         np.testing.assert_array_equal(np.asarray(positions, np.float32), fit.landmarks)
     assert content.values(LANDMARKS, "Points2D:keypoint_ids")[0] == list(range(68))
-    assert content.values(LANDMARKS, "Points2D:class_ids") == [[0], [0], [1]]
+    # Good fits: each point in the class of its facial part; a failed fit: all in one class.
+    assert content.values(LANDMARKS, "Points2D:class_ids") == [
+        part_ids(), part_ids(), [IBUG_FAILED] * 68]
     (classes,) = content.static("/", "AnnotationContext:context")
-    assert [c["class_id"] for c in classes] == [0, 1]
-    for c in classes:
-        desc = c["class_description"]
-        edges = {(k["keypoint0"], k["keypoint1"]) for k in desc["keypoint_connections"]}
-        assert edges == set(IBUG68.edges)
-        labels = [k["label"] for k in desc["keypoint_annotations"]]
-        assert labels[::17] == ["jaw 0", "brows 17", "nose 34", "mouth 51"]
-    assert "failed" in classes[1]["class_description"]["info"]["label"]
+    assert [c["class_id"] for c in classes] == list(range(len(PARTS) + 1))
+    drawn = set()
+    for k, part in enumerate(PARTS):
+        desc = classes[k]["class_description"]
+        assert desc["info"]["label"] == f"ibug68 (68 points) {part}"
+        r, g, b = PART_COLOURS[part]
+        assert desc["info"]["color"] == (r << 24) | (g << 16) | (b << 8) | 0xFF
+        assert [a["id"] for a in desc["keypoint_annotations"]] == list(IBUG68.groups[part])
+        assert {a["label"] for a in desc["keypoint_annotations"]} == {
+            f"{part} {i}" for i in IBUG68.groups[part]}
+        drawn |= {(e["keypoint0"], e["keypoint1"]) for e in desc["keypoint_connections"]}
+    assert drawn == set(IBUG68.edges)
+    failed = classes[IBUG_FAILED]["class_description"]
+    assert "failed" in failed["info"]["label"]
+    edges = {(k["keypoint0"], k["keypoint1"]) for k in failed["keypoint_connections"]}
+    assert edges == set(IBUG68.edges)
+    labels = [k["label"] for k in failed["keypoint_annotations"]]
+    assert labels[::17] == ["jaw 0", "brows 17", "nose 34", "mouth 51"]
     series = "/" + ent.FIT_SERIES
     assert content.mono(f"{series}/failed", "Scalars:scalars") == [0.0, 0.0, 1.0]
     assert content.mono(f"{series}/iterations", "Scalars:scalars") == [5.0, 6.0, 7.0]
@@ -144,7 +168,7 @@ def test_fit_logger_clears_landmarks_when_no_face_is_found(new_recording, rrd_to
     content = read(rec.rrd_path)
     assert [len(p) for p in content.values(LANDMARKS, "Points2D:positions")] == [68, 0]
     (classes,) = content.static("/", "AnnotationContext:context")
-    assert [c["class_id"] for c in classes] == [0, 1]
+    assert [c["class_id"] for c in classes] == list(range(len(PARTS) + 1))
     assert content.mono(f"/{ent.FIT_SERIES}/failed", "Scalars:scalars") == [0.0, 1.0]
 
 
@@ -165,9 +189,10 @@ def test_fit_logger_draws_unknown_schemes_without_connections(new_recording, rrd
     rec.close()
     verify(rec.rrd_path)
     content = read(rec.rrd_path)
-    assert content.values(LANDMARKS, "Points2D:class_ids") == [[0], [2]]
+    imm_id = IBUG_FAILED + 1  # after iBUG's classes: its one part, "points"
+    assert content.values(LANDMARKS, "Points2D:class_ids") == [part_ids(), [imm_id] * 73]
     (classes,) = content.static("/", "AnnotationContext:context")
-    imm_class = next(c for c in classes if c["class_id"] == 2)["class_description"]
+    imm_class = next(c for c in classes if c["class_id"] == imm_id)["class_description"]
     assert imm_class["keypoint_connections"] == []
     assert len(imm_class["keypoint_annotations"]) == 73
     # NaN texture error: nothing logged for that frame.
@@ -314,5 +339,45 @@ def test_loggers_share_one_annotation_context(new_recording, rrd_tools, kind):
     rec.close()
     content = read(rec.rrd_path)
     (classes_logged,) = content.static("/", "AnnotationContext:context")
-    assert [c["class_id"] for c in classes_logged] == [0, 1]
-    assert content.static("/" + ent.HEAD_MODEL, "Points3D:class_ids") == [0]
+    assert [c["class_id"] for c in classes_logged] == list(range(len(PARTS) + 1))
+    assert content.static("/" + ent.HEAD_MODEL, "Points3D:class_ids") == part_ids()
+
+
+def test_pose_logger_puts_the_glasses_on_the_head_and_they_move_with_it(
+    new_recording, rrd_tools, faces, messages_of
+):
+    read, verify = rrd_tools
+    rec = new_recording()
+    glasses = mean_head_glasses()
+    logger = PoseLogger(rec.stream, LandmarkClasses(), SeriesWriter(rec.stream), openface68(),
+                        glasses)
+    poses = [messages_of(face, i)[3] for i, face in enumerate(faces)]
+    for i, pose in enumerate(poses):
+        _at(rec, i)
+        logger.log(pose)
+    rec.close()
+    verify(rec.rrd_path)
+    content = read(rec.rrd_path)
+    frame, lenses = "/" + ent.GLASSES_FRAME, "/" + ent.GLASSES_LENSES
+    # Under the head's transform, logged once in the head model's frame.
+    assert frame.startswith("/" + ent.HEAD + "/") and lenses.startswith("/" + ent.HEAD + "/")
+    assert not [r for r in content.rows[frame] + content.rows[lenses] if not r["static"]]
+    positions = np.vstack([content.static(e, "Mesh3D:vertex_positions") for e in (frame, lenses)])
+    triangles = sum(len(content.static(e, "Mesh3D:triangle_indices")) for e in (frame, lenses))
+    assert triangles == len(glasses.triangles)
+    lens_vertices = np.vstack([glasses.part_vertices(n) for n in LENS_PARTS])
+    logged_lenses = np.asarray(content.static(lenses, "Mesh3D:vertex_positions"))
+    np.testing.assert_allclose(np.unique(logged_lenses, axis=0),
+                               np.unique(lens_vertices, axis=0), atol=1e-4)
+    used = np.unique(glasses.triangles)
+    np.testing.assert_allclose(np.sort(positions, axis=0),
+                               np.sort(glasses.vertices[used], axis=0), atol=1e-4)
+    assert len(content.mono("/" + ent.HEAD, "Transform3D:translation")) == 3
+    # The lenses sit in front of the eyes: in the camera, the posed lens centres project
+    # near the eye centres the fit found.
+    for face, pose in zip(faces, poses, strict=True):
+        cam = glasses.lens_centres @ pose.rotation.T + pose.translation_mm
+        K = pose.intrinsics
+        uv = cam[:, :2] / cam[:, 2:] * [K[0, 0], K[1, 1]] + K[:2, 2]
+        eyes = np.array([face.points[36:42].mean(axis=0), face.points[42:48].mean(axis=0)])
+        assert np.linalg.norm(uv - eyes, axis=1).max() < 0.25 * IBUG68.inter_ocular(face.points)

@@ -1,4 +1,5 @@
-"""The service, run as its own process on a real Zenoh bus, records a stream to a valid .rrd."""
+"""The service, run as its own process on a real Zenoh bus, records a stream to a valid .rrd,
+streams it to a real running Rerun viewer, or serves it until stopped."""
 
 from __future__ import annotations
 
@@ -24,6 +25,8 @@ from proto.keys import status_key, topic_key
 from proto.messages import EndOfStream, Message, Status
 from proto.zenoh_config import zenoh_config
 from services.rerun_logger import entities as ent
+from services.rerun_logger.annotations import PARTS
+from tests.services.rerun_logger.conftest import has_event, wait_until
 
 STREAM = "cam0"
 KINDS = ("frame", "boxes", "fit", "pose", "expression", "overlay", "eos")
@@ -214,7 +217,89 @@ def _service_command(*args: str) -> subprocess.CompletedProcess[str]:
 def test_service_refuses_to_run_without_an_output():
     done = _service_command("--stream", STREAM)
     assert done.returncode == 2
-    assert "give --rrd PATH, --serve PORT, or both" in done.stderr
+    assert "give --rrd PATH, --serve PORT and/or --viewer [URL]" in done.stderr
+
+
+def _publish_stream(bus: Bus, faces: list, messages_of: Any) -> None:
+    for i, face in enumerate(faces):
+        for msg in messages_of(face, i):
+            bus.publish(msg)
+    bus.publish(EndOfStream(messages_of(faces[-1], len(faces) - 1)[0].header,
+                            total_frames=len(faces), reason="end_of_file"))
+
+
+def test_service_streams_to_a_running_viewer_and_saves_with_the_save_alias(
+    bus, tmp_path, rrd_tools, faces, messages_of, rerun_server
+):
+    read, verify = rrd_tools
+    viewer = rerun_server()
+    rrd = tmp_path / "saved.rrd"
+    process = _start(bus, "--viewer", viewer.url, "--save", str(rrd), "--idle", "0.3")
+    try:
+        bus.wait_for_subscribers()
+        _publish_stream(bus, faces, messages_of)
+        process.join(30)
+        assert process.exitcode == 0
+    finally:
+        _stop(process)
+    got = viewer.wait_for(has_event("end of stream"), "the end of stream in the viewer")
+    verify(rrd)
+    for content in (got, read(rrd)):
+        assert content.frames("/" + ent.LANDMARKS, "Points2D:positions") == [0, 1, 2]
+        assert content.frames("/" + ent.HEAD, "Transform3D:translation") == [0, 1, 2]
+        class_ids = content.values("/" + ent.LANDMARKS, "Points2D:class_ids")[0]
+        assert set(class_ids) == set(range(len(PARTS)))  # coloured by facial part
+        assert len(content.static("/" + ent.GLASSES_FRAME, "Mesh3D:vertex_positions")) > 100
+    assert bus.final_status().state == "stopped"
+
+
+def test_service_with_a_viewer_that_is_not_running_exits_2_with_one_line(tmp_path):
+    from tests.services.rerun_logger.conftest import free_port
+
+    port = free_port()
+    done = _service_command("--stream", STREAM, "--viewer", str(port),
+                            "--rrd", str(tmp_path / "never.rrd"))
+    assert done.returncode == 2
+    assert "Traceback" not in done.stderr
+    (line,) = [x for x in done.stderr.splitlines() if "ERROR" in x or "error" in x]
+    assert f"no Rerun viewer at rerun+http://127.0.0.1:{port}/proxy" in line
+    assert "connection refused" in line
+    assert not (tmp_path / "never.rrd").exists()
+
+
+def test_service_rejects_a_malformed_viewer_url():
+    done = _service_command("--stream", STREAM, "--viewer", "http://127.0.0.1:9876/")
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert "--viewer 'http://127.0.0.1:9876/': expected rerun+http://HOST:PORT/proxy" in (
+        done.stderr)
+
+
+def test_service_keeps_serving_after_the_end_of_stream_until_stopped(
+    bus, tmp_path, rrd_tools, faces, messages_of, rerun_server
+):
+    read, verify = rrd_tools
+    rrd = tmp_path / "served.rrd"
+    port = _free_port()
+    process = _start(bus, "--rrd", str(rrd), "--serve", str(port), "--idle", "0.2")
+    try:
+        bus.wait_for_subscribers()
+        _publish_stream(bus, faces[:2], messages_of)
+        status = wait_until(lambda: (s := bus.last_status()) is not None
+                            and s.state == "waiting" and s, "the service to serve on", 30)
+        assert f"serving rerun+http://127.0.0.1:{port}/proxy until stopped" in status.message
+        # A viewer connecting after the end of stream gets the whole recording.
+        late = rerun_server("late", source=f"rerun+http://127.0.0.1:{port}/proxy")
+        got = late.wait_for(has_event("end of stream"), "the recording in the late viewer")
+        assert got.frames("/" + ent.LANDMARKS, "Points2D:positions") == [0, 1]
+        assert process.is_alive() and process.exitcode is None
+        os.kill(process.pid, signal.SIGTERM)
+        process.join(20)
+        assert process.exitcode == 0
+    finally:
+        _stop(process)
+    verify(rrd)
+    assert read(rrd).frames("/" + ent.LANDMARKS, "Points2D:positions") == [0, 1]
+    assert bus.final_status().state == "stopped"
 
 
 def test_service_reports_an_unwritable_rrd_path(tmp_path):
