@@ -16,6 +16,16 @@ FOV_DEG = 60.0
 DETECTOR = {"scale_factor": 1.2, "min_neighbors": 3, "min_size": (60, 60), "max_side": 320}
 """Haar detector settings (:class:`aamcore.detection.haar.HaarFaceDetector`): frames are
 searched at most 320 px on their longer side, faces of at least 60 px."""
+THESIS_OFFSETS: tuple[int, ...] = tuple(
+    sorted({s * v for v in (0, 1, 3, 5, 10, 15, 20, 25, 30, 35, 40, 45, 50) for s in (-1, 1)})
+)
+"""Displacements in pixels of the thesis's Monte Carlo fitting runs (tables 7.1, 7.2)."""
+FIT_STARTS = ("cog", "haar")
+"""The Monte Carlo runs' starts: centre of gravity and Haar box (section 7.3)."""
+EXPRESSION_VARIANCES: tuple[float, ...] = (0.95, 0.97, 0.98, 0.99, 0.995, 0.999)
+"""Kept-variance fractions of the expression benchmark (table 9.2)."""
+SVM_GRID_NAMES = ("full", "coarse")
+"""Named (C, gamma) grids of the SVM search (:data:`aamcore.expression.svm.SVM_GRIDS`)."""
 MODEL_DATASET = "lfpw"
 """What the default fitting model is trained on."""
 MODEL_UPDATE_IMAGES = 30

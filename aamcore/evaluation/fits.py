@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from aamcore import defaults
 from aamcore.detection.boxes import landmark_box, match_detection
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.detection.mapping import BoxToShapeMapping
@@ -32,13 +33,8 @@ from aamcore.io.landmarks import as_points
 from aamcore.model.aam import AAM
 from aamcore.model.similarity import Similarity
 
-STARTS = ("cog", "haar")
-
-
-THESIS_OFFSETS: tuple[int, ...] = tuple(
-    sorted({s * v for v in (0, 1, 3, 5, 10, 15, 20, 25, 30, 35, 40, 45, 50) for s in (-1, 1)})
-)
-"""Displacements in pixels of the thesis's Monte Carlo runs (tables 7.1, 7.2)."""
+STARTS = defaults.FIT_STARTS
+THESIS_OFFSETS = defaults.THESIS_OFFSETS
 
 
 def cog_start(

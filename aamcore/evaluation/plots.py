@@ -8,18 +8,37 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
 from aamcore.evaluation.metrics import ced
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+
+def new_figure(**kwargs: Any) -> Figure:
+    """A matplotlib figure on the Agg canvas.
+
+    Raises
+    ------
+    ImportError
+        Saying how to install the plotting extra when matplotlib is missing.
+    """
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError as exc:
+        raise ImportError("PNG figures need matplotlib: pip install 'aamtrack[plots]'") from exc
+    fig = Figure(**kwargs)
+    FigureCanvasAgg(fig)
+    return fig
 
 
 def _save(fig: Figure, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    FigureCanvasAgg(fig)
     fig.savefig(path, dpi=100)
     return path
 
@@ -72,7 +91,7 @@ def save_ced_png(
     if not max_error > 0:
         raise ValueError(f"max_error must be > 0, got {max_error}")
     thresholds = np.linspace(0.0, max_error, n_steps)
-    fig = Figure(figsize=(6, 4.5))
+    fig = new_figure(figsize=(6, 4.5))
     ax = fig.add_subplot()
     for label, errors in curves.items():
         ax.plot(thresholds, ced(errors, thresholds), label=f"{label} (n={len(errors)})")
@@ -123,7 +142,7 @@ def save_displacement_plot(
     n = len(results)
     cols = min(n, 2)
     rows = (n + cols - 1) // cols
-    fig = Figure(figsize=(5.5 * cols, 4 * rows))
+    fig = new_figure(figsize=(5.5 * cols, 4 * rows))
     for k, (metric, series) in enumerate(results.items()):
         ax = fig.add_subplot(rows, cols, k + 1)
         for name, values in series.items():

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from aamcore import defaults
 from aamcore.expression.aam_features import AAMAppearanceFeatures, fit_faces
 from aamcore.expression.classifier_file import ExpressionClassifier
 from aamcore.expression.evaluation import (
@@ -42,8 +43,7 @@ from aamcore.fitting.model import FittingModel
 from aamcore.fitting.training.prepare import default_model_path
 from aamcore.io.jaffe import load_jaffe
 
-VARIANCES: tuple[float, ...] = (0.95, 0.97, 0.98, 0.99, 0.995, 0.999)
-"""Kept-variance fractions of table 9.2."""
+VARIANCES = defaults.EXPRESSION_VARIANCES
 CLASS_SETS: dict[int, tuple[str, ...]] = {7: SEVEN_CLASSES, 5: FIVE_CLASSES}
 RATE_TARGETS: dict[int, float] = {7: 0.65, 5: 0.80}
 """Overall leave-one-poser-out recognition rate targets."""

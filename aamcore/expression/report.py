@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
+from aamcore.evaluation.plots import new_figure
 from aamcore.expression.evaluation import EvaluationResult
 from aamcore.expression.labels import short_name
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 
 def _cell(value: float) -> str:
@@ -48,8 +51,7 @@ def confusion_figure(result: EvaluationResult) -> Figure:
     names = [short_name(c) for c in result.class_names]
     percent = result.confusion_percent()
     n = len(names)
-    fig = Figure(figsize=(1.0 + 0.8 * n, 1.0 + 0.75 * n), dpi=100)
-    FigureCanvasAgg(fig)
+    fig = new_figure(figsize=(1.0 + 0.8 * n, 1.0 + 0.75 * n), dpi=100)
     ax = fig.add_subplot()
     image = ax.imshow(percent, cmap="Blues", vmin=0.0, vmax=100.0)
     ax.set_xticks(np.arange(n), names)

@@ -27,6 +27,7 @@ from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
 from aamcore.io.jaffe import load_jaffe
 from aamcore.io.sample import DatasetError
+from aamcore.progress import note
 
 log = logging.getLogger("aamtrack.expression")
 TRAINING_VERSION = 3
@@ -86,8 +87,8 @@ def classifier_path(model_path: str | Path) -> Path:
     fingerprint = model_fingerprint(model_path)
     path = cache_dir() / f"expression-{fingerprint}-v{TRAINING_VERSION}.npz"
     if not path.is_file():
-        log.info("training the expression classifier for %s on JAFFE (cached as %s)",
-                 Path(model_path).name, path)
+        note(f"training the expression classifier for {Path(model_path).name} on JAFFE, "
+             f"once: it is kept in {path.parent}")
         path.parent.mkdir(parents=True, exist_ok=True)
         train_classifier(model_path).save(path)
     return path

@@ -218,13 +218,11 @@ def plot_pose_sequence(result: dict[str, Any], path: str | Path, title: str = ""
         PNG file to write.
     title : str
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from aamcore.evaluation.plots import new_figure
 
     frames = [r["frame"] for r in result["per_frame"]]
-    fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
+    fig = new_figure(figsize=(8, 9))
+    axes = fig.subplots(4, 1, sharex=True)
     for ax, (name, unit) in zip(axes, [("pitch", "deg"), ("yaw", "deg"), ("roll", "deg"),
                                        ("distance_cm", "cm")], strict=True):
         truth = [r["truth"][name] for r in result["per_frame"]]
@@ -245,5 +243,4 @@ def plot_pose_sequence(result: dict[str, Any], path: str | Path, title: str = ""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=100)
-    plt.close(fig)
     return path

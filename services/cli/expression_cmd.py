@@ -11,16 +11,7 @@ import json
 import sys
 from pathlib import Path
 
-from aamcore.expression.benchmark import (
-    VARIANCES,
-    format_benchmark,
-    load_aam_data,
-    load_pixel_data,
-    run_expression_benchmark,
-)
-from aamcore.expression.svm import SVM_GRIDS
-from aamcore.fitting.fitter import Fitter
-from aamcore.fitting.model import FittingModel
+from aamcore import defaults
 from services.cli.groups import eval_group
 
 FEATURE_KINDS = ("aam", "pixels")
@@ -68,7 +59,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--variances",
         type=_fractions,
-        default=list(VARIANCES),
+        default=list(defaults.EXPRESSION_VARIANCES),
         help="kept PCA variance fractions, comma-separated (default: table 9.2's)",
     )
     parser.add_argument(
@@ -79,7 +70,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--grid",
-        choices=tuple(SVM_GRIDS),
+        choices=defaults.SVM_GRID_NAMES,
         default="full",
         help="SVM C and gamma grid searched in each fold (coarse: quick runs)",
     )
@@ -95,6 +86,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark; return 0 when every target is met, else 1."""
+    from aamcore.expression.benchmark import (
+        format_benchmark,
+        load_aam_data,
+        load_pixel_data,
+        run_expression_benchmark,
+    )
+    from aamcore.expression.svm import SVM_GRIDS
+    from aamcore.fitting.fitter import Fitter
+    from aamcore.fitting.model import FittingModel
+
     if args.trials < 1:
         raise ValueError(f"--trials must be at least 1, got {args.trials}")
     C_grid, gamma_grid = SVM_GRIDS[args.grid]

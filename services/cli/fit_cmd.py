@@ -8,28 +8,8 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
-import cv2
-import numpy as np
-
 from aamcore import defaults
-from aamcore.config import resolve_dataset
-from aamcore.detection.haar import HaarFaceDetector
-from aamcore.evaluation.fits import (
-    STARTS,
-    THESIS_OFFSETS,
-    failure_rates,
-    format_failure_table,
-    held_out,
-    landmark_errors,
-    monte_carlo,
-    summary,
-)
-from aamcore.evaluation.plots import save_ced_png
 from aamcore.fitting.algorithm import ALGORITHMS
-from aamcore.fitting.fitter import Fitter
-from aamcore.fitting.model import FittingModel
-from aamcore.io import load_annotated_folder, read_image
-from aamcore.model.visualise import draw_shape
 from services.cli.groups import eval_group
 
 
@@ -47,10 +27,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--model", type=Path, required=True)
     e.add_argument("--data", required=True, help="annotated folder or dataset name")
     _algorithm_option(e)
-    e.add_argument("--starts", default=",".join(STARTS), help="cog, haar or both")
+    e.add_argument("--starts", default=",".join(defaults.FIT_STARTS), help="cog, haar or both")
     e.add_argument(
         "--offsets",
-        default=",".join(str(o) for o in THESIS_OFFSETS),
+        default=",".join(str(o) for o in defaults.THESIS_OFFSETS),
         help="start displacements in pixels (default: the thesis's -50..50)",
     )
     e.add_argument("--limit", type=int, help="at most this many held-out images")
@@ -78,6 +58,15 @@ def _algorithm_option(p: argparse.ArgumentParser) -> None:
 
 
 def run_fit(args: argparse.Namespace) -> int:
+    import cv2
+    import numpy as np
+
+    from aamcore.detection.haar import HaarFaceDetector
+    from aamcore.fitting.fitter import Fitter
+    from aamcore.fitting.model import FittingModel
+    from aamcore.io import read_image
+    from aamcore.model.visualise import draw_shape
+
     fitter = Fitter(FittingModel.load(args.model), args.algorithm)
     aam = fitter.aam
     detector = HaarFaceDetector()
@@ -116,6 +105,10 @@ def run_fit(args: argparse.Namespace) -> int:
 
 
 def _test_samples(args: argparse.Namespace, aam) -> list:
+    from aamcore.config import resolve_dataset
+    from aamcore.evaluation.fits import held_out
+    from aamcore.io import load_annotated_folder
+
     data = load_annotated_folder(resolve_dataset(args.data))
     if data.scheme.n_points != aam.scheme.n_points:
         raise ValueError(
@@ -129,6 +122,11 @@ def _test_samples(args: argparse.Namespace, aam) -> list:
 
 
 def run_eval_fit(args: argparse.Namespace) -> int:
+    from aamcore.evaluation.fits import failure_rates, format_failure_table, monte_carlo, summary
+    from aamcore.evaluation.plots import save_ced_png
+    from aamcore.fitting.fitter import Fitter
+    from aamcore.fitting.model import FittingModel
+
     fitter = Fitter(FittingModel.load(args.model), args.algorithm)
     aam = fitter.aam
     samples = _test_samples(args, aam)
@@ -165,6 +163,11 @@ def run_eval_fit(args: argparse.Namespace) -> int:
 
 
 def run_eval_landmarks(args: argparse.Namespace) -> int:
+    from aamcore.evaluation.fits import landmark_errors, summary
+    from aamcore.evaluation.plots import save_ced_png
+    from aamcore.fitting.fitter import Fitter
+    from aamcore.fitting.model import FittingModel
+
     fitter = Fitter(FittingModel.load(args.model), args.algorithm)
     aam = fitter.aam
     samples = _test_samples(args, aam)

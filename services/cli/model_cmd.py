@@ -1,4 +1,4 @@
-"""``aamtrack model show|modes|reconstruct``: look at a trained model."""
+"""``aamtrack model prepare|show|modes|reconstruct``: ready the default models, look at one."""
 
 from __future__ import annotations
 
@@ -6,16 +6,20 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-import cv2
-
-from aamcore.io import read_asf, read_image, read_pts
-from aamcore.model.file import load_model, read_header
-from aamcore.model.visualise import modes_figure, reconstruction_figure
-
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("model", help="inspect a trained model")
     msub = p.add_subparsers(dest="model_command", required=True, metavar="ACTION")
+    prep = msub.add_parser(
+        "prepare", help="train the stack's default models now (else the first run does)"
+    )
+    prep.add_argument("--limit", type=int, default=None,
+                      help="train on the first N images only (a small model, as --model-limit)")
+    prep.add_argument("--update-images", type=int, default=None,
+                      help="images for the update matrices (as the fitter's --model-images)")
+    prep.add_argument("--no-classifier", action="store_true",
+                      help="the fitting model only, not the expression classifier")
+    prep.set_defaults(func=run_prepare)
     show = msub.add_parser("show", help="print a model's summary")
     show.add_argument("file", type=Path)
     show.set_defaults(func=run_show)
@@ -60,12 +64,34 @@ def print_summary(header: dict[str, Any], path: Path) -> None:
         print(f"  attachment {name}: {info}")
 
 
+def run_prepare(args: argparse.Namespace) -> int:
+    """Train (or find in the cache) the models ``aamtrack run`` uses by default."""
+    from aamcore import defaults
+    from aamcore.fitting.training.prepare import default_model_path
+
+    model = default_model_path(max_images=args.update_images or defaults.MODEL_UPDATE_IMAGES,
+                               limit=args.limit)
+    print(f"fitting model {model}")
+    if not args.no_classifier:
+        from aamcore.expression.training import classifier_path
+
+        print(f"expression classifier {classifier_path(model)}")
+    return 0
+
+
 def run_show(args: argparse.Namespace) -> int:
+    from aamcore.model.file import read_header
+
     print_summary(read_header(args.file), args.file)
     return 0
 
 
 def run_modes(args: argparse.Namespace) -> int:
+    import cv2
+
+    from aamcore.model.file import load_model
+    from aamcore.model.visualise import modes_figure
+
     figure = modes_figure(load_model(args.file), args.modes)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     cv2.imwrite(str(args.out), figure)
@@ -75,12 +101,20 @@ def run_modes(args: argparse.Namespace) -> int:
 
 def load_landmarks(path: Path, image_size: tuple[int, int]) -> Any:
     """Landmarks (N, 2) in pixels from a ``.pts`` or ``.asf`` file."""
+    from aamcore.io import read_asf, read_pts
+
     if path.suffix == ".asf":
         return read_asf(path).pixels(*image_size)
     return read_pts(path)
 
 
 def run_reconstruct(args: argparse.Namespace) -> int:
+    import cv2
+
+    from aamcore.io import read_image
+    from aamcore.model.file import load_model
+    from aamcore.model.visualise import reconstruction_figure
+
     aam = load_model(args.file)
     image = read_image(args.image)
     points = load_landmarks(args.landmarks, (image.shape[1], image.shape[0]))

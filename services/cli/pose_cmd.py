@@ -11,14 +11,15 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from aamcore.pose.evaluation import evaluate_pose_sequence, plot_pose_sequence, posit_vs_sqpnp
-from aamcore.pose.head_model import HeadModel, imm73, load_csv_model, openface68
-from aamcore.pose.intrinsics import CameraIntrinsics
 from services.cli.groups import eval_group
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from aamcore.pose.head_model import HeadModel
+    from aamcore.pose.intrinsics import CameraIntrinsics
 
 SWEEP_CHOICES = ("yaw", "pitch", "roll", "distance", "all")
 
@@ -92,6 +93,8 @@ def _camera_options(p: argparse.ArgumentParser) -> None:
 
 
 def _camera(args: argparse.Namespace) -> CameraIntrinsics:
+    from aamcore.pose.intrinsics import CameraIntrinsics
+
     if args.intrinsics is not None:
         return CameraIntrinsics.from_file(args.intrinsics)
     return CameraIntrinsics.from_fov(args.width, args.height, args.fov)
@@ -117,6 +120,8 @@ def run_synth(args: argparse.Namespace) -> int:
 
 
 def _model(name: str, exact: HeadModel) -> HeadModel:
+    from aamcore.pose.head_model import imm73, load_csv_model, openface68
+
     if name == "openface68":
         return openface68()
     if name == "openface68-rigid":
@@ -134,6 +139,10 @@ def _model(name: str, exact: HeadModel) -> HeadModel:
 def _load_inputs(
     args: argparse.Namespace,
 ) -> tuple[list[np.ndarray], list[Any], CameraIntrinsics, HeadModel, str]:
+    import numpy as np
+
+    from aamcore.pose.head_model import HeadModel
+    from aamcore.pose.intrinsics import CameraIntrinsics
     from aamcore.synth.head import synth_head
     from aamcore.synth.sequence import exact_landmarks, load_sequence, sweep_poses
 
@@ -171,6 +180,10 @@ def _load_inputs(
 
 
 def run_eval_pose(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from aamcore.pose.evaluation import evaluate_pose_sequence, plot_pose_sequence, posit_vs_sqpnp
+
     try:
         noise = [float(x) for x in args.noise.split(",") if x.strip()]
     except ValueError as exc:
@@ -212,6 +225,7 @@ def _fitted_sequence(
     from aamcore.fitting.tracker import Tracker
     from aamcore.fitting.training.prepare import default_model_path
     from aamcore.io.video import video_frames
+    from aamcore.pose.evaluation import evaluate_pose_sequence
     from aamcore.synth.sequence import render_sequence
 
     if args.sequence is not None:

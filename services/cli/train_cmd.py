@@ -5,16 +5,13 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from tqdm import tqdm
+if TYPE_CHECKING:
+    from aamcore.io import FaceSample
+    from aamcore.model.training import TrainConfig
 
-from aamcore.config import cache_dir, resolve_dataset
-from aamcore.fitting.training.prepare import train_fitting_model
-from aamcore.io import FaceSample, load_annotated_folder
-from aamcore.model.cache import cache_key
-from aamcore.model.file import read_header, save_model
-from aamcore.model.training import TrainConfig, train_aam
-from services.cli.model_cmd import print_summary
+
 
 
 def add_train_options(parser: argparse.ArgumentParser) -> None:
@@ -36,6 +33,8 @@ def add_train_options(parser: argparse.ArgumentParser) -> None:
 
 def config_from(args: argparse.Namespace) -> TrainConfig:
     """The :class:`TrainConfig` the options describe."""
+    from aamcore.model.training import TrainConfig
+
     return TrainConfig(
         shape_variance=args.shape_variance,
         texture_variance=args.texture_variance,
@@ -88,6 +87,15 @@ def select_training(
 
 
 def run(args: argparse.Namespace) -> int:
+    from aamcore.config import cache_dir, resolve_dataset
+    from aamcore.fitting.training.prepare import train_fitting_model
+    from aamcore.io import load_annotated_folder
+    from aamcore.model.cache import cache_key
+    from aamcore.model.file import read_header, save_model
+    from aamcore.model.training import train_aam
+    from aamcore.progress import bar
+    from services.cli.model_cmd import print_summary
+
     config = config_from(args)
     folder = resolve_dataset(args.data)
     data = load_annotated_folder(folder, limit=args.limit)
@@ -100,14 +108,14 @@ def run(args: argparse.Namespace) -> int:
     samples = select_training(data.samples, args.hold_out_subjects, args.train_fraction)
     extra = {"hold_out": args.hold_out_subjects, "fraction": args.train_fraction, "fit": args.fit}
     out = args.out or cache_dir() / f"{folder.name}-{cache_key(str(folder), config, extra)}.npz"
-    bar = lambda items: tqdm(items, desc="sampling textures", unit="img", file=sys.stderr)  # noqa: E731
-    aam = train_aam(samples, data.scheme, config, progress=bar, source=str(folder))
+    aam = train_aam(samples, data.scheme, config, progress=bar("appearance model"),
+                    source=str(folder))
     aam.summary["skipped"] = data.errors + aam.summary["skipped"]
     if args.fit:
         print(
             "training the fitters (box mapping, update matrices, descent cascade)", file=sys.stderr
         )
-        path = train_fitting_model(aam, samples).save(out)
+        path = train_fitting_model(aam, samples, progress=bar("update matrices")).save(out)
     else:
         path = save_model(aam, out)
     print_summary(read_header(path), path)

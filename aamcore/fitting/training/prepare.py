@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import logging
+import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
@@ -18,8 +18,8 @@ from aamcore.io import FaceSample
 from aamcore.model.aam import AAM
 from aamcore.model.cache import cache_key, cached_file, training_samples
 from aamcore.model.training import TrainConfig, train_aam
+from aamcore.progress import bar, note
 
-log = logging.getLogger(__name__)
 RECIPE = "fitting v6"
 """Names the training below in the cache key: change it when the training changes."""
 
@@ -82,10 +82,15 @@ def default_model_path(
                                           "prepare": f"{RECIPE}, {max_images} images"})
 
     def build(path: Path) -> Path:
+        start = time.perf_counter()
         samples, scheme = training_samples(folder, (lambda s: s[:limit]) if limit else None)
-        log.info("training a fitting model on %d images of %s (cached as %s)", len(samples),
-                 folder, path)
-        aam = train_aam(samples, scheme, config, source=f"{folder} [{chosen}]")
-        return train_fitting_model(aam, samples, max_images=max_images).save(path)
+        note(f"training a fitting model on {len(samples)} images of {folder.name}, once: "
+             f"it is kept in {path.parent}")
+        aam = train_aam(samples, scheme, config, progress=bar("appearance model"),
+                        source=f"{folder} [{chosen}]")
+        model = train_fitting_model(aam, samples, max_images=max_images,
+                                    progress=bar("update matrices"))
+        note(f"fitting model trained in {time.perf_counter() - start:.0f} s")
+        return model.save(path)
 
     return cached_file(cache_dir() / f"{folder.name}-{key}.npz", build, FittingModel.load)
