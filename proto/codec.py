@@ -57,7 +57,18 @@ def _unpack(payload: bytes | bytearray | memoryview, limit: int) -> Any:
         )
     except (ValueError, TypeError, msgpack.UnpackException) as exc:
         # ValueError covers truncation, extra data, bad UTF-8, limits and bad map keys.
-        raise ProtoError(f"payload is not valid msgpack within the limits: {exc}") from None
+        raise ProtoError(f"payload is not valid msgpack within the limits: {_text(exc)}") from None
+
+
+def _text(exc: Exception) -> str:
+    """An exception's message; some msgpack 1.0 releases leave it unformatted ('%s exceeds ...')."""
+    template, *values = exc.args or ("",)
+    if values and isinstance(template, str) and "%" in template:
+        try:
+            return template % tuple(values)
+        except TypeError:
+            pass
+    return str(exc)
 
 
 def decode(payload: bytes | bytearray | memoryview, expected_kind: str | None = None) -> Message:

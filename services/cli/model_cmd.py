@@ -8,7 +8,7 @@ from typing import Any
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("model", help="inspect a trained model")
+    p = sub.add_parser("model", aliases=["models"], help="prepare the default models, inspect one")
     msub = p.add_subparsers(dest="model_command", required=True, metavar="ACTION")
     prep = msub.add_parser(
         "prepare", help="train the stack's default models now (else the first run does)"

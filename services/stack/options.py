@@ -57,6 +57,8 @@ class LaunchOptions(Options):
     record: str | None = option(None, "record every result message to FILE", metavar="FILE")
     record_images: bool = option(False, "with --record: frames and overlays too")
     summary: str | None = option(None, "write the run's summary as JSON", metavar="FILE")
+    smooth: bool | None = option(None, "smooth landmarks and pose over time, One Euro filter "
+                                 "(default: as the fitter and pose services, on)")
     restart: bool = option(True, "restart services that die")
     start_timeout: float = option(120.0, "seconds to wait for the services to start",
                                   check=in_range(1))
@@ -142,6 +144,9 @@ def stack_options(args: argparse.Namespace, base: StackOptions | None = None) ->
         names = ["source", *ALWAYS, *(["ar"] if launch.ar else []),
                  *(["rerun"] if every["rerun"].has_output else [])]
     services = {name: every[name] for name in SERVICES if name in names}
+    if launch.smooth is not None:
+        services.update({name: services[name].replace(smooth=launch.smooth)
+                         for name in ("fitter", "pose") if name in services})
     if "source" in services and not services["source"].has_input:
         raise OptionError("give the input: --video FILE, --camera INDEX or --url URL")
     extra = {**base.extra, **extra_args(getattr(args, "set", []) or [])}

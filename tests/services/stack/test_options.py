@@ -1,0 +1,42 @@
+"""The options of ``aamtrack run``: derived from the services', checked before start."""
+
+from __future__ import annotations
+
+import pytest
+
+from services.bus.options import OptionError
+from services.stack.options import parse_run_args
+
+
+def test_default_run_starts_every_stage_and_smooths() -> None:
+    opts = parse_run_args(["--video", "clip.mp4"])
+    assert list(opts.services) == ["source", "detector", "fitter", "pose", "expression", "ar"]
+    assert opts.services["fitter"].smooth and opts.services["pose"].smooth
+
+
+def test_no_smooth_reaches_fitter_and_pose() -> None:
+    opts = parse_run_args(["--video", "clip.mp4", "--no-smooth"])
+    assert not opts.services["fitter"].smooth
+    assert not opts.services["pose"].smooth
+
+
+def test_an_output_starts_the_rerun_service() -> None:
+    assert "rerun" in parse_run_args(["--video", "clip.mp4", "--rrd", "out.rrd"]).services
+    assert "ar" not in parse_run_args(["--video", "clip.mp4", "--no-ar"]).services
+
+
+def test_service_options_are_checked_with_their_ranges() -> None:
+    with pytest.raises(OptionError, match="--fov"):
+        parse_run_args(["--video", "clip.mp4", "--fov", "0"])
+
+
+def test_a_run_needs_an_input() -> None:
+    with pytest.raises(OptionError, match="--video"):
+        parse_run_args([])
+
+
+def test_set_passes_an_argument_to_one_service() -> None:
+    opts = parse_run_args(["--video", "clip.mp4", "--set", "fitter:--detect-timeout=2"])
+    assert opts.extra == {"fitter": ["--detect-timeout=2"]}
+    with pytest.raises(OptionError, match="SERVICE:ARG"):
+        parse_run_args(["--video", "clip.mp4", "--set", "nobody:--x"])
