@@ -41,21 +41,26 @@ def part_ids() -> list[int]:
     return ids
 
 
+def _finished(rec, rrd_tools):
+    """The content of ``rec``'s file once closed, after ``rerun rrd verify`` passed on it."""
+    read, verify = rrd_tools
+    rec.close()
+    verify(rec.rrd_path)
+    return read(rec.rrd_path)
+
+
 def _at(rec, index: int) -> None:
     rec.stream.set_time(ent.FRAME_TIMELINE, sequence=index)
 
 
 def test_image_logger_compresses_raw_frames(new_recording, rrd_tools, faces, messages_of):
-    read, verify = rrd_tools
     rec = new_recording()
     logger = ImageLogger(rec.stream, ent.VIDEO, quality=90)
     frames = [messages_of(face, i)[0] for i, face in enumerate(faces)]
     for i, frame in enumerate(frames):
         _at(rec, i)
         logger.log(frame)
-    rec.close()
-    verify(rec.rrd_path)
-    content = read(rec.rrd_path)
+    content = _finished(rec, rrd_tools)
     entity = "/" + ent.VIDEO
     assert content.frames(entity, "EncodedImage:blob") == [0, 1, 2]
     assert content.values(entity, "EncodedImage:media_type") == [["image/jpeg"]] * 3
@@ -69,20 +74,16 @@ def test_image_logger_compresses_raw_frames(new_recording, rrd_tools, faces, mes
 
 
 def test_image_logger_logs_jpeg_bytes_unchanged(new_recording, rrd_tools, faces, messages_of):
-    read, verify = rrd_tools
     rec = new_recording()
     overlay = messages_of(faces[0], 0)[-1]
     _at(rec, 0)
     ImageLogger(rec.stream, ent.OVERLAY).log(overlay)
-    rec.close()
-    verify(rec.rrd_path)
-    content = read(rec.rrd_path)
+    content = _finished(rec, rrd_tools)
     assert bytes(content.values("/" + ent.OVERLAY, "EncodedImage:blob")[0][0]) == overlay.image
     assert content.values("/" + ent.OVERLAY, "EncodedImage:media_type") == [["image/jpeg"]]
 
 
 def test_boxes_logger_logs_xywh_boxes_and_clears_on_none(new_recording, rrd_tools):
-    read, verify = rrd_tools
     rec = new_recording()
     boxes = golden_messages()["boxes"]
     logger = BoxesLogger(rec.stream)
@@ -92,9 +93,7 @@ def test_boxes_logger_logs_xywh_boxes_and_clears_on_none(new_recording, rrd_tool
     none = type(boxes)(boxes.header, image_width=640, image_height=480,
                        boxes=np.zeros((0, 4)), scores=np.zeros(0))
     logger.log(none)
-    rec.close()
-    verify(rec.rrd_path)
-    content = read(rec.rrd_path)
+    content = _finished(rec, rrd_tools)
     entity = "/" + ent.BOXES
     centers, empty = content.values(entity, "Boxes2D:centers")
     xywh = np.asarray(boxes.boxes, dtype=float)
@@ -105,16 +104,13 @@ def test_boxes_logger_logs_xywh_boxes_and_clears_on_none(new_recording, rrd_tool
 
 
 def test_fit_logger_logs_keypoints_of_the_scheme(new_recording, rrd_tools, faces, messages_of):
-    read, verify = rrd_tools
     rec = new_recording()
     logger = FitLogger(rec.stream, LandmarkClasses(), SeriesWriter(rec.stream))
     fits = [messages_of(face, i, failed=i == 2)[2] for i, face in enumerate(faces)]
     for i, fit in enumerate(fits):
         _at(rec, i)
         logger.log(fit)
-    rec.close()
-    verify(rec.rrd_path)
-    content = read(rec.rrd_path)
+    content = _finished(rec, rrd_tools)
     for fit, positions in zip(fits, content.values(LANDMARKS, "Points2D:positions"), strict=True):
         np.testing.assert_array_equal(np.asarray(positions, np.float32), fit.landmarks)
     assert content.values(LANDMARKS, "Points2D:keypoint_ids")[0] == list(range(68))
@@ -150,7 +146,6 @@ def test_fit_logger_logs_keypoints_of_the_scheme(new_recording, rrd_tools, faces
 
 
 def test_fit_logger_clears_landmarks_when_no_face_is_found(new_recording, rrd_tools):
-    read, verify = rrd_tools
     rec = new_recording()
     logger = FitLogger(rec.stream, LandmarkClasses(), SeriesWriter(rec.stream))
     golden_fit = golden_messages()["fit"]
@@ -163,9 +158,7 @@ def test_fit_logger_clears_landmarks_when_no_face_is_found(new_recording, rrd_to
     }))
     _at(rec, 1)
     logger.log(no_face)
-    rec.close()
-    verify(rec.rrd_path)
-    content = read(rec.rrd_path)
+    content = _finished(rec, rrd_tools)
     assert [len(p) for p in content.values(LANDMARKS, "Points2D:positions")] == [68, 0]
     (classes,) = content.static("/", "AnnotationContext:context")
     assert [c["class_id"] for c in classes] == list(range(len(PARTS) + 1))
@@ -173,7 +166,6 @@ def test_fit_logger_clears_landmarks_when_no_face_is_found(new_recording, rrd_to
 
 
 def test_fit_logger_draws_unknown_schemes_without_connections(new_recording, rrd_tools, imm_dir):
-    read, verify = rrd_tools
     imm = load_annotated_folder(imm_dir, limit=1).samples[0]
     rec = new_recording()
     logger = FitLogger(rec.stream, LandmarkClasses(), SeriesWriter(rec.stream))
@@ -186,9 +178,7 @@ def test_fit_logger_draws_unknown_schemes_without_connections(new_recording, rrd
                   failed=False, failure_reason="", warp_path="gpu", confidence=0.9)
     _at(rec, 1)
     logger.log(imm_fit)
-    rec.close()
-    verify(rec.rrd_path)
-    content = read(rec.rrd_path)
+    content = _finished(rec, rrd_tools)
     imm_id = IBUG_FAILED + 1  # after iBUG's classes: its one part, "points"
     assert content.values(LANDMARKS, "Points2D:class_ids") == [part_ids(), [imm_id] * 73]
     (classes,) = content.static("/", "AnnotationContext:context")
@@ -202,7 +192,6 @@ def test_fit_logger_draws_unknown_schemes_without_connections(new_recording, rrd
 def test_pose_logger_puts_the_head_model_where_the_landmarks_are(
     new_recording, rrd_tools, faces, messages_of
 ):
-    read, verify = rrd_tools
     rec = new_recording()
     model = openface68()
     logger = PoseLogger(rec.stream, LandmarkClasses(), SeriesWriter(rec.stream), model)
@@ -210,9 +199,7 @@ def test_pose_logger_puts_the_head_model_where_the_landmarks_are(
     for i, pose in enumerate(poses):
         _at(rec, i)
         logger.log(pose)
-    rec.close()
-    verify(rec.rrd_path)
-    content = read(rec.rrd_path)
+    content = _finished(rec, rrd_tools)
     head, camera = "/" + ent.HEAD, "/" + ent.CAMERA
     np.testing.assert_allclose(content.static("/" + ent.HEAD_MODEL, "Points3D:positions"),
                                model.points, rtol=1e-6, atol=1e-4)
@@ -241,30 +228,24 @@ def test_pose_logger_puts_the_head_model_where_the_landmarks_are(
 
 
 def test_pose_logger_without_a_model(new_recording, rrd_tools):
-    read, verify = rrd_tools
     rec = new_recording()
     _at(rec, 0)
     PoseLogger(rec.stream, LandmarkClasses(), SeriesWriter(rec.stream)).log(
         golden_messages()["pose"]
     )
-    rec.close()
-    verify(rec.rrd_path)
-    content = read(rec.rrd_path)
+    content = _finished(rec, rrd_tools)
     assert "/" + ent.HEAD in content.entities
     assert "/" + ent.HEAD_MODEL not in content.entities
 
 
 def test_expression_logger_logs_one_series_per_class(new_recording, rrd_tools, faces, messages_of):
-    read, verify = rrd_tools
     rec = new_recording()
     logger = ExpressionLogger(rec.stream, SeriesWriter(rec.stream))
     expressions = [messages_of(face, i)[4] for i, face in enumerate(faces)]
     for i, expression in enumerate(expressions):
         _at(rec, i)
         logger.log(expression)
-    rec.close()
-    verify(rec.rrd_path)
-    content = read(rec.rrd_path)
+    content = _finished(rec, rrd_tools)
     for c, name in enumerate(expressions[0].class_names):
         entity = f"/{ent.EXPRESSION_SERIES}/{name}"
         values = content.mono(entity, "Scalars:scalars")
@@ -278,7 +259,6 @@ def test_expression_logger_logs_one_series_per_class(new_recording, rrd_tools, f
 def test_latency_logger_logs_each_stage_from_the_header(
     new_recording, rrd_tools, faces, messages_of
 ):
-    read, verify = rrd_tools
     rec = new_recording()
     series = SeriesWriter(rec.stream)
     logger = LatencyLogger(series)
@@ -288,9 +268,7 @@ def test_latency_logger_logs_each_stage_from_the_header(
             logger.log(msg)
     logger.log(golden_messages()["status"])
     logger.log(EndOfStream(golden_messages()["eos"].header, total_frames=2, reason="stopped"))
-    rec.close()
-    verify(rec.rrd_path)
-    content = read(rec.rrd_path)
+    content = _finished(rec, rrd_tools)
     latency = "/" + ent.LATENCY_SERIES
     assert {e for e in content.entities if e.startswith(latency)} == {
         f"{latency}/{kind}" for kind in ("frame", "boxes", "fit", "pose", "expression", "overlay")
@@ -300,7 +278,6 @@ def test_latency_logger_logs_each_stage_from_the_header(
 
 
 def test_status_logger_logs_counts_and_state_changes(new_recording, rrd_tools):
-    read, verify = rrd_tools
     rec = new_recording()
     status = golden_messages()["status"]
     logger = StatusLogger(rec.stream, SeriesWriter(rec.stream))
@@ -312,9 +289,7 @@ def test_status_logger_logs_counts_and_state_changes(new_recording, rrd_tools):
             "state": state, "frames_in": fields["frames_in"] + i,
             "latency_p50_ms": math.nan if i == 1 else 4.5, "message": "boom" if i == 2 else "",
         })))
-    rec.close()
-    verify(rec.rrd_path)
-    content = read(rec.rrd_path)
+    content = _finished(rec, rrd_tools)
     base = f"/{ent.STATUS_SERIES}/fitter"
     assert content.mono(f"{base}/frames_in", "Scalars:scalars") == [1000.0, 1001.0, 1002.0]
     assert content.mono(f"{base}/rejected", "Scalars:scalars") == [2.0] * 3
@@ -346,7 +321,6 @@ def test_loggers_share_one_annotation_context(new_recording, rrd_tools, kind):
 def test_pose_logger_puts_the_glasses_on_the_head_and_they_move_with_it(
     new_recording, rrd_tools, faces, messages_of
 ):
-    read, verify = rrd_tools
     rec = new_recording()
     glasses = mean_head_glasses()
     logger = PoseLogger(rec.stream, LandmarkClasses(), SeriesWriter(rec.stream), openface68(),
@@ -355,9 +329,7 @@ def test_pose_logger_puts_the_glasses_on_the_head_and_they_move_with_it(
     for i, pose in enumerate(poses):
         _at(rec, i)
         logger.log(pose)
-    rec.close()
-    verify(rec.rrd_path)
-    content = read(rec.rrd_path)
+    content = _finished(rec, rrd_tools)
     frame, lenses = "/" + ent.GLASSES_FRAME, "/" + ent.GLASSES_LENSES
     # Under the head's transform, logged once in the head model's frame.
     assert frame.startswith("/" + ent.HEAD + "/") and lenses.startswith("/" + ent.HEAD + "/")
