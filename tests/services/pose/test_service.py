@@ -37,12 +37,14 @@ def svc() -> Service:
         yield s
 
 
+@pytest.mark.parametrize("method", ["posit", "contour"])
 def test_pose_of_a_frontal_face_is_in_front_of_the_camera_and_upright(
-    svc: Service, data_dir: Path
+    svc: Service, data_dir: Path, method: str
 ) -> None:
     points, size = marked_face(data_dir, "einstein")
     model = openface68(rigid_subset=True)
-    estimator = HeadPoseEstimator(Cameras(60.0, None), model)
+    estimator = HeadPoseEstimator(Cameras(60.0, None), model if method == "posit" else None,
+                                  method)
     poses = HeadPoseTracker(estimator)
     pose = decode(encode(pose_message(svc, fit_of(points, size), poses)), "pose")
     assert pose.header.frame_index == 9 and pose.header.capture_time_ns == 123
