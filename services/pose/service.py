@@ -37,10 +37,11 @@ def pose_message(svc: Service, fit: Fit, poses: HeadPoseTracker) -> HeadPose:
     pose = poses.update(fit.landmarks, fit.image_width, fit.image_height, t, fit.failed)
     est, cam = pose.estimate, pose.camera
     roll, pitch, yaw = est.rpy
+    reason = f"fit failed: {fit.failure_reason}" if fit.failed else pose.reason
     return HeadPose(
         svc.header_for(fit), est.R, est.T, float(roll), float(pitch), float(yaw), cam.K,
         fit.image_width, fit.image_height, poses.estimator.cameras.source,
-        int(est.iterations), bool(est.reliable and not fit.failed),
+        int(est.iterations), not reason, reason, pose.angle_sd_deg,
     )
 
 
