@@ -9,11 +9,18 @@ reliable is worse than no pose: the glasses are drawn in the wrong place.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
 
 from aamcore.pose.rotation import rpy_from_rotation
+
+
+def reason_key(reason: str) -> str:
+    """The short key of a reason, to count reasons by: its text before the first colon,
+    numbers as ``#``, at most 60 characters."""
+    return re.sub(r"\d+", "#", reason.split(":", 1)[0]).strip()[:60]
 
 
 @dataclass(frozen=True)

@@ -172,16 +172,17 @@ class ContourPose:
         """Check one fit's landmarks, find the usable ones, normalise them."""
         pts = np.asarray(landmarks, dtype=np.float64)
         if pts.shape != (68, 2):
-            raise PoseError(f"need the 68 iBUG landmarks as a (68, 2) array, got {pts.shape}")
+            raise PoseError(f"not 68 landmarks: need the iBUG-68 points as a (68, 2) array, "
+                            f"got shape {pts.shape}")
         finite = np.all(np.isfinite(pts), axis=1)
         inner_ok = finite[self.inner]
         if inner_ok.sum() < MIN_POINTS:
-            raise PoseError(f"only {int(inner_ok.sum())} finite inner landmarks; "
-                            f"need {MIN_POINTS}")
+            raise PoseError(f"too few landmarks: only {int(inner_ok.sum())} finite inner "
+                            f"landmarks, need {MIN_POINTS}")
         used = pts[self.inner][inner_ok]
         size = float(np.sqrt(np.mean(np.sum((used - used.mean(axis=0)) ** 2, axis=1))))
         if not size > 0:
-            raise PoseError("the inner landmarks all coincide")
+            raise PoseError("degenerate landmarks: the inner landmarks all coincide")
         inside = finite
         if cam.width > 0 and cam.height > 0:
             m = self.outside_margin * size
@@ -189,8 +190,8 @@ class ContourPose:
                 inside = finite & ((pts[:, 0] >= -m) & (pts[:, 0] <= cam.width - 1 + m)
                                    & (pts[:, 1] >= -m) & (pts[:, 1] <= cam.height - 1 + m))
         if inside[self.inner].sum() < MIN_POINTS:
-            raise PoseError(f"only {int(inside[self.inner].sum())} inner landmarks inside the "
-                            f"image; need {MIN_POINTS}: the face is mostly out of the frame")
+            raise PoseError(f"mostly out of the frame: only {int(inside[self.inner].sum())} "
+                            f"inner landmarks inside the image, need {MIN_POINTS}")
         xy = np.full((68, 2), np.nan)
         xy[finite] = cam.normalize(pts[finite])
         return _Seen(xy, inside, np.array(cam.focal, dtype=np.float64), size,

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from aamcore.pose.reliability import FitQuality, ReliabilityLimits
+from aamcore.pose.reliability import FitQuality, ReliabilityLimits, reason_key
 from aamcore.pose.rotation import rotation_from_rpy
 
 GOOD = FitQuality(1.0, 50.0, 0.9, 0.0, np.array([0.5, 0.5, 0.5]), True)
@@ -40,3 +40,11 @@ def test_pose_checks_come_first() -> None:
     assert limits.problem(rotation_from_rpy(0, 0, -80), T, bad).startswith(
         "profile: yaw -80 deg")
     assert limits.problem(np.full((3, 3), np.nan), T, GOOD).startswith("no valid pose")
+
+
+def test_reason_keys_count_alike_reasons_as_one() -> None:
+    assert reason_key("profile: yaw +80 deg beyond +-75") == "profile"
+    assert reason_key("fit failed: texture error 31.2 too large") == "fit failed"
+    assert reason_key("POSIT did not converge in 100 iterations") == (
+        "POSIT did not converge in # iterations")
+    assert reason_key("") == ""

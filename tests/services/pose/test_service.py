@@ -1,4 +1,5 @@
-"""services.pose.service: POSIT on hand-marked faces, cameras from a FOV or a calibration."""
+"""services.pose.service: poses of hand-marked faces (contour and POSIT), reasons, counts,
+cameras from a FOV or a calibration."""
 
 from __future__ import annotations
 
@@ -9,13 +10,18 @@ import cv2
 import numpy as np
 import pytest
 
+from aamcore import defaults
 from aamcore.io.pts import read_pts
+from aamcore.pose.errors import PoseError
 from aamcore.pose.estimator import Cameras, HeadPoseEstimator, HeadPoseTracker
 from aamcore.pose.head_model import openface68
+from aamcore.pose.reliability import reason_key
 from proto import Fit, Header, decode, encode
 from services.bus.connection import BusOptions
+from services.bus.options import OptionError
 from services.bus.session import Service
-from services.pose.service import pose_message
+from services.pose.options import PoseOptions
+from services.pose.service import PoseCounts, pose_message
 
 
 def marked_face(data_dir: Path, name: str) -> tuple[np.ndarray, tuple[int, int]]:
@@ -90,3 +96,45 @@ def test_cameras_from_a_calibration_file_scale_to_the_frame_size(tmp_path: Path)
     assert cameras.at(320, 240).K[0, 0] == pytest.approx(400)
     assumed = Cameras(90.0, None).at(640, 480)
     assert assumed.K[0, 0] == pytest.approx(320)
+
+
+def test_landmarks_outside_the_frame_give_an_unreliable_pose_with_its_reason_or_none(
+    svc: Service, data_dir: Path
+) -> None:
+    points, size = marked_face(data_dir, "einstein")
+    poses = HeadPoseTracker(HeadPoseEstimator())
+    half_out = points + [0.3 * np.ptp(points[:, 0]) + size[0] - points[:, 0].max(), 0.0]
+    pose = decode(encode(pose_message(svc, fit_of(half_out, size), poses)), "pose")
+    assert not pose.reliable and pose.reason.startswith("points outside the frame")
+    with pytest.raises(PoseError, match="out of the frame"):
+        pose_message(svc, fit_of(points + [3.0 * size[0], 0.0], size), poses)
+
+
+def test_a_failed_fit_says_so_and_a_good_one_has_a_predicted_sd(
+    svc: Service, data_dir: Path
+) -> None:
+    points, size = marked_face(data_dir, "einstein")
+    poses = HeadPoseTracker(HeadPoseEstimator())
+    good = pose_message(svc, fit_of(points, size), poses)
+    assert good.reliable and good.reason == "" and 0.0 < good.angle_sd_deg < 3.0
+    failed = pose_message(svc, fit_of(points, size, failed=True), poses)
+    assert not failed.reliable and failed.reason == "fit failed: lost"
+    posit = HeadPoseTracker(HeadPoseEstimator(method="posit"))
+    assert np.isnan(pose_message(svc, fit_of(points, size), posit).angle_sd_deg)
+
+
+def test_the_estimator_option() -> None:
+    assert PoseOptions().estimator == defaults.POSE_ESTIMATOR == "contour"
+    assert PoseOptions(estimator="contour+calib").estimator == "contour+calib"
+    with pytest.raises(OptionError, match="--estimator 'eos': choose one of contour, posit"):
+        PoseOptions(estimator="eos")
+
+
+def test_the_status_line_counts_reasons() -> None:
+    counts = PoseCounts()
+    counts.no_face = 2
+    assert counts.line() == "2 fits without a face"
+    counts.unreliable[reason_key("profile: yaw +80 deg")] += 3
+    counts.no_pose[reason_key("mostly out of the frame: only 2 inner landmarks")] += 1
+    assert counts.line() == ("2 fits without a face; unreliable: 3 profile; "
+                             "no pose: 1 mostly out of the frame")
