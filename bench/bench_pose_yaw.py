@@ -53,6 +53,7 @@ import numpy as np
 
 from aamcore import defaults
 from aamcore.ar.glasses_mesh import mean_head_glasses
+from aamcore.pose.calibrate import OnlineCalibration
 from aamcore.pose.errors import PoseError
 from aamcore.pose.estimator import Cameras, HeadPoseEstimator
 from aamcore.pose.head_model import openface68
@@ -81,6 +82,7 @@ class Variant:
     def __init__(self, name: str, estimate: Estimate, settle: Callable[[], object] | None = None
                  ) -> None:
         self.name, self.estimate, self.settle = name, estimate, settle
+        self.calibration: OnlineCalibration | None = None
 
     @classmethod
     def stack(cls, name: str, camera: CameraIntrinsics, **kwargs: Any) -> Variant:
@@ -88,8 +90,10 @@ class Variant:
         est = HeadPoseEstimator(Cameras(fov), **kwargs)
         if not np.allclose(est.cameras.at(camera.width, camera.height).K, camera.K):
             raise SystemExit(f"{name}: the data's camera is not one of a field of view")
-        return cls(name, lambda lm, cam: est.estimate(lm, cam.width, cam.height).estimate,
-                   est.wait if est.calibration is not None else None)
+        v = cls(name, lambda lm, cam: est.estimate(lm, cam.width, cam.height).estimate,
+                est.wait if est.calibration is not None else None)
+        v.calibration = est.calibration
+        return v
 
 
 def variants(camera: CameraIntrinsics, args: argparse.Namespace) -> list[Variant]:
@@ -248,6 +252,18 @@ def run_bad_inputs(chosen: list[Variant], camera: CameraIntrinsics, seed: int) -
             for v in chosen]
 
 
+def live_timing(sweeps: list[TrackedSweep], marks: list[list[np.ndarray | None]] | None,
+                camera: CameraIntrinsics, anchors: np.ndarray) -> str:
+    """contour+calib as the stack runs it, refinements not waited for: time per estimate."""
+    v = Variant.stack("contour+calib", camera, method="contour+calib")
+    _, timing = evaluate_estimator(v.estimate, sweeps, camera, anchors, marks)
+    if v.settle is not None:
+        v.settle()
+    return (f"INFO: contour+calib with the refinement running beside the estimates (not "
+            f"waited for): {timing['ms_median']:.2f} ms median, p99 {timing['ms_p99']:.2f} ms "
+            f"per estimate, {v.calibration.refinements if v.calibration else 0} refinements")
+
+
 def trackers(args: argparse.Namespace) -> list[tuple[str, Callable[..., Any] | None, str]]:
     """(label, track function or None for annotated, cache name) of each tracker asked for."""
     out: list[tuple[str, Callable[..., Any] | None, str]] = []
@@ -326,7 +342,10 @@ def main() -> None:
                 rows.append((v.name, results, timing))
                 yaw = [s.spec.name for s in sweeps if s.spec.parameter == "yaw"]
                 lines += verdicts(f"{v.name} [{label}, {data_name}]", results, ["all", *yaw])
+                lines.append(f"INFO: {v.name} [{label}, {data_name}] {timing['ms_median']:.2f} "
+                             f"ms median, p99 {timing['ms_p99']:.2f} ms per estimate")
             print_table(f"== {data_name}, {tracked}: {tracker_note(sweeps, track)}", rows)
+            lines.append(live_timing(sweeps, marks, cam, anchors))
     lines += run_bad_inputs(variants(camera, args), camera, args.seed)
     print("\n(error sd (mean) in deg, distance in cm; glasses: mean anchor px; ms: median "
           "per estimate)\n")

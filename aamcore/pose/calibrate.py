@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import threading
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -184,6 +185,9 @@ def refine_model(
 
 
 def _reestimated(estimator: ContourPose, frame: KeptFrame) -> KeptFrame:
+    # Give up the GIL between frames: in a background refinement the per-frame path
+    # would otherwise wait up to a switch interval (5 ms) at each of its steps.
+    time.sleep(0)
     try:
         e = estimator.estimate(frame.landmarks, frame.camera)
     except PoseError:
