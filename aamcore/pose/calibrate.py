@@ -116,6 +116,7 @@ def triangulate(frames: list[KeptFrame], inner: np.ndarray, X: np.ndarray, X0: n
     H = np.tile(np.eye(3) / prior_mm**2, (n, 1, 1))
     g = (X - X0) / prior_mm**2
     for f in frames:
+        time.sleep(0)  # give up the GIL (see _reestimated)
         Q = X @ f.R.T + f.T
         z = Q[:, 2]
         pts = f.landmarks[inner]
@@ -316,6 +317,7 @@ class OnlineCalibration:
     def _refine(self, frames: dict[tuple[int, int], KeptFrame], start: np.ndarray,
                 generation: int) -> None:
         """Refine from a snapshot of the kept frames; swap the result in unless reset since."""
+        time.sleep(0)  # a new thread holds the GIL: let the estimate that started it finish
         try:
             points, estimator, refined = refine_model(frames, self._mean, start, self.settings,
                                                       self.options)
