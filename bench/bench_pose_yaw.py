@@ -110,9 +110,12 @@ def variants(camera: CameraIntrinsics, args: argparse.Namespace) -> list[Variant
                              ("rigid-nojaw", {"outline": None})):
             out.append(Variant(name, ContourPose(**kwargs).estimate))
     if args.eos:
-        from eos_pose import EosPose  # bench/eos_pose.py; needs eos-py
+        from eos_pose import EosPose  # bench/eos_pose.py
 
-        out.append(Variant("eos", EosPose().estimate))
+        try:
+            out.append(Variant("eos", EosPose().estimate))
+        except PoseError as exc:  # eos-py is not installed
+            print(f"eos left out: {exc}")
     if args.variants:
         out = [v for v in out if v.name in args.variants.split(",")]
     return out

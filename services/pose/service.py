@@ -58,9 +58,12 @@ class PoseCounts:
         self.unreliable: Counter[str] = Counter()
         self.no_pose: Counter[str] = Counter()
 
-    def line(self) -> str:
-        """``"2 fits without a face; unreliable: 3 profile; no pose: 1 mostly out of ..."``."""
+    def line(self, refinements: int | None = None) -> str:
+        """``"2 fits without a face; unreliable: 3 profile; no pose: 1 mostly out of ..."``,
+        and the head model refinements since the face was found when there is a calibration."""
         parts = [f"{self.no_face} fits without a face"]
+        if refinements is not None:
+            parts.append(f"head model refined {refinements} times")
         for name, counts in (("unreliable", self.unreliable), ("no pose", self.no_pose)):
             if counts:
                 parts.append(f"{name}: " + ", ".join(f"{n} {k}" for k, n in
@@ -90,7 +93,8 @@ def serve(svc: Service, poses: HeadPoseTracker, capacity: int) -> None:
             except (PoseError, IntrinsicsError, ProtoError) as exc:
                 counts.no_pose[reason_key(str(exc))] += 1
                 svc.reject("fit", f"no pose: {exc}")
-        svc.set_state("running", counts.line())
+        calib = estimator.calibration
+        svc.set_state("running", counts.line(None if calib is None else calib.refinements))
 
 
 def main(argv: Sequence[str] | None = None) -> int:

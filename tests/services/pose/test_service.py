@@ -4,6 +4,7 @@ cameras from a FOV or a calibration."""
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
@@ -22,6 +23,9 @@ from services.bus.options import OptionError
 from services.bus.session import Service
 from services.pose.options import PoseOptions
 from services.pose.service import PoseCounts, pose_message
+from services.stack.launcher import Stack
+from services.stack.options import StackOptions
+from services.stack.recorder import load_messages
 
 
 def marked_face(data_dir: Path, name: str) -> tuple[np.ndarray, tuple[int, int]]:
@@ -138,3 +142,22 @@ def test_the_status_line_counts_reasons() -> None:
     counts.no_pose[reason_key("mostly out of the frame: only 2 inner landmarks")] += 1
     assert counts.line() == ("2 fits without a face; unreliable: 3 profile; "
                              "no pose: 1 mostly out of the frame")
+    assert counts.line(4).startswith("2 fits without a face; head model refined 4 times; ")
+
+
+def test_the_stack_runs_the_calibrating_estimator_and_its_status_counts(
+    single_face: Path, tmp_path: Path, stack_options: Callable[..., StackOptions],
+) -> None:
+    rec = tmp_path / "run.rec"
+    opts = stack_options(single_face, ar=False, record=str(rec), estimator="contour+calib")
+    with Stack(opts) as stack:
+        assert stack.wait() == "done"
+    messages = load_messages(rec)
+    fits = [m for m in messages if m.KIND == "fit" and len(m.landmarks)]
+    poses = [m for m in messages if m.KIND == "pose"]
+    assert len(fits) >= 70 and len(poses) == len(fits)
+    assert all(p.reliable == (p.reason == "") for p in poses)
+    assert sum(p.reliable for p in poses) >= 0.9 * len(poses)
+    assert all(0.0 < p.angle_sd_deg < 3.0 for p in poses if p.reliable)
+    status = [m for m in messages if m.KIND == "status" and m.service == "pose"]
+    assert status and "fits without a face; head model refined" in status[-1].message
