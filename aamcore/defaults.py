@@ -30,3 +30,11 @@ MODEL_DATASET = "lfpw"
 """What the default fitting model is trained on."""
 MODEL_UPDATE_IMAGES = 30
 """Images the default model's update matrices are learned from."""
+POSE_ESTIMATORS = ("contour", "posit", "contour+calib")
+"""Head-pose estimators (:class:`aamcore.pose.estimator.HeadPoseEstimator`): ``contour``
+matches the jaw landmarks to the outline seen (:class:`aamcore.pose.robust.ContourPose`),
+``posit`` is the thesis's POSIT without the jaw, ``contour+calib`` adapts the head model
+to the person (:class:`aamcore.pose.calibrate.OnlineCalibration`)."""
+POSE_ESTIMATOR = "contour"
+"""The head-pose estimator of the stack and the library: it holds to +-60 degrees of yaw
+where POSIT's jaw points mislead it (bench/bench_pose_yaw.py, PORT_REPORT.md)."""

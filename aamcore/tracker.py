@@ -69,7 +69,8 @@ class FaceResult:
     expression : str or None
     expression_scores : dict of str to float
     reason : str
-        Why there is no face, the fit failed, or there is no pose; empty otherwise.
+        Why there is no face, the fit failed, there is no pose or the pose is
+        unreliable; empty otherwise.
     """
 
     frame_index: int
@@ -142,19 +143,23 @@ class FaceTracker:
         As :class:`~aamcore.fitting.fitter.Fitter` takes them.
     smoothing : bool
         Smooth landmarks and pose over time (One Euro filter, :mod:`aamcore.smoothing`).
+    pose_estimator : str
+        One of :data:`aamcore.defaults.POSE_ESTIMATORS`
+        (:class:`~aamcore.pose.estimator.HeadPoseEstimator`).
     """
 
     def __init__(self, model: str | Path | FittingModel | None = None,
                  classifier: str | Path | ExpressionClassifier | None = None,
                  camera: str | float | None = None, *, algorithm: str = defaults.ALGORITHM,
-                 failure_test: str = defaults.FAILURE_TEST, smoothing: bool = False) -> None:
+                 failure_test: str = defaults.FAILURE_TEST, smoothing: bool = False,
+                 pose_estimator: str = defaults.POSE_ESTIMATOR) -> None:
         self.model = _model(model)
         fitter = Fitter(self.model, algorithm, failure_test=failure_test)
         self.tracker = Tracker(fitter, HaarFaceDetector())
         calibration = camera if isinstance(camera, str | Path) else None
         fov = float(camera) if isinstance(camera, int | float) else defaults.FOV_DEG
         cameras = Cameras(fov, str(calibration) if calibration else None)
-        self.pose = HeadPoseTracker(HeadPoseEstimator(cameras), smoothing)
+        self.pose = HeadPoseTracker(HeadPoseEstimator(cameras, method=pose_estimator), smoothing)
         loaded = _classifier(classifier)
         self.expression = ExpressionRecogniser(loaded) if loaded is not None else None
         self.landmarks = LandmarkSmoother() if smoothing else None
@@ -239,4 +244,4 @@ def result_of(index: int, t: float, fit: FitResult, points: np.ndarray, pose: He
     roll, pitch, yaw = est.rpy
     return FaceResult(index, t, fit.ok, fit.confidence, points, fit.similarity, est.R, est.T,
                       float(roll), float(pitch), float(yaw), bool(est.reliable and fit.ok),
-                      expression and expression.label, scores, reason)
+                      expression and expression.label, scores, reason or pose.reason)

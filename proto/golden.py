@@ -83,6 +83,8 @@ def _head_pose() -> kinds.HeadPose:
         intrinsics_source="assumed:fov43.6",
         iterations=4,
         reliable=True,
+        reason="",
+        angle_sd_deg=0.75,
     )
 
 

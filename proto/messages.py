@@ -135,7 +135,13 @@ class HeadPose(Message):
     iterations : int
         Pose iterations done.
     reliable : bool
-        Whether the estimate passed its own checks.
+        Whether the estimate passed its own checks (and the fit it comes from did not fail).
+    reason : str
+        Why the pose is not reliable (e.g. the fit failed, a face in profile, landmarks
+        outside the frame); empty exactly when ``reliable`` is true.
+    angle_sd_deg : float
+        Predicted standard deviation of the least certain of roll, pitch and yaw, degrees,
+        >= 0; NaN when the estimator does not predict it.
     """
 
     KIND: ClassVar[str] = "pose"
@@ -150,11 +156,18 @@ class HeadPose(Message):
     intrinsics_source: str = spec(NAME)
     iterations: int = spec(COUNT)
     reliable: bool = spec(Bool())
+    reason: str = spec(Str())
+    angle_sd_deg: float = spec(Float(0.0, math.inf, allow_nan=True))
 
     def _check(self) -> None:
         k = self.intrinsics
         if not (k[0, 0] > 0 and k[1, 1] > 0 and (k[2] == (0.0, 0.0, 1.0)).all()):
             raise ProtoError("pose.intrinsics: need fx > 0, fy > 0 and last row 0 0 1")
+        if self.reliable == bool(self.reason):
+            raise ProtoError(
+                "pose.reason: must be non-empty exactly when reliable is false "
+                f"(reliable={self.reliable}, reason={self.reason!r})"
+            )
 
 
 @dataclass(frozen=True, eq=False)

@@ -93,6 +93,14 @@ RULES: dict[str, list[tuple[str, dict[str, Any] | None]]] = {
                 }
             },
         ),
+        (
+            "reason is non-empty exactly when reliable is false",
+            {
+                "if": {"properties": {"reliable": {"const": False}}},
+                "then": {"properties": {"reason": {"minLength": 1}}},
+                "else": {"properties": {"reason": {"maxLength": 0}}},
+            },
+        ),
     ],
     "expression": [
         ("label is one of class_names", None),

@@ -29,6 +29,9 @@ LEFT_EYE_CORNERS = (42, 45)
 NOSE_BRIDGE = 27
 JAW_ENDS = (0, 16)
 
+ANCHOR_NAMES = ("lens_right", "lens_left", "bridge", "hinge_right", "hinge_left")
+"""Anchor points of :class:`GlassesMesh`, the order of :meth:`GlassesMesh.anchor_points`."""
+
 OPAQUE_PARTS = ("rim_right", "rim_left", "bridge", "temple_right", "temple_left")
 LENS_PARTS = ("lens_right", "lens_left")
 
@@ -83,11 +86,22 @@ class GlassesMesh:
         then :data:`LENS_PARTS`, contiguous in that order.
     lens_centres : (2, 3) array
         Centres of the right and left lenses, mm.
+    anchors : dict of str to (3,) array
+        Points that place the glasses on the face, mm: ``lens_right``,
+        ``lens_left`` (lens centres), ``bridge`` (top of the bridge),
+        ``hinge_right``, ``hinge_left`` (where the temples leave the rims).
+        Where they are drawn measures a head pose for AR: their pixel error
+        is what a viewer sees.
     """
 
     mesh: TriMesh
     parts: dict[str, tuple[int, int]] = field(default_factory=dict)
     lens_centres: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))
+    anchors: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def anchor_points(self) -> np.ndarray:
+        """The anchors as one (5, 3) array in :data:`ANCHOR_NAMES` order, mm."""
+        return np.array([self.anchors[name] for name in ANCHOR_NAMES])
 
     @property
     def vertices(self) -> np.ndarray:
@@ -198,9 +212,12 @@ def build_glasses(landmarks: np.ndarray, design: GlassesDesign | None = None) ->
     inner_right = _outline_point(right, design, +1.0, 25.0)
     inner_left = _outline_point(left, design, -1.0, 25.0)
     top = 0.5 * (inner_right + inner_left) + [0.0, -2.0 * design.bridge_rise, -2.0]
-    meshes["bridge"] = tube(_bezier(inner_right, top, inner_left, 16), design.bridge_radius)
+    bridge = _bezier(inner_right, top, inner_left, 16)
+    meshes["bridge"] = tube(bridge, design.bridge_radius)
+    anchors = {"lens_right": right, "lens_left": left, "bridge": bridge[len(bridge) // 2]}
     for name, centre, side in (("right", right, -1.0), ("left", left, 1.0)):
         hinge = _outline_point(centre, design, side, 20.0) + [side * design.rim_radius, 0, 0]
+        anchors[f"hinge_{name}"] = hinge
         path = _temple_path(hinge, side, half_spacing, design)
         meshes[f"temple_{name}"] = tube(path, design.temple_radius, sides=10)
 
@@ -210,7 +227,7 @@ def build_glasses(landmarks: np.ndarray, design: GlassesDesign | None = None) ->
         parts[name] = (first, meshes[name].n_triangles)
         first += meshes[name].n_triangles
     mesh = concatenate([meshes[name] for name in order])
-    return GlassesMesh(mesh, parts, np.array(centres))
+    return GlassesMesh(mesh, parts, np.array(centres), anchors)
 
 
 def mean_head_glasses(design: GlassesDesign | None = None) -> GlassesMesh:

@@ -2,9 +2,11 @@
 
 :class:`Cameras` gives the intrinsics of any frame size, from a calibration
 (scaled to the frame) or from an assumed field of view; :class:`HeadPoseEstimator`
-picks the head model's points among the landmarks and runs POSIT. The pose
-service and :class:`aamcore.tracker.FaceTracker` both call it, so the
-library and the stack give the same numbers.
+runs one of the estimators of :data:`aamcore.defaults.POSE_ESTIMATORS` on the
+landmarks: ContourPose (the default), POSIT on the points without the jaw, or
+ContourPose with a head model calibrated to the person. The pose service and
+:class:`aamcore.tracker.FaceTracker` both call it, so the library and the
+stack give the same numbers.
 """
 
 from __future__ import annotations
@@ -16,12 +18,15 @@ from pathlib import Path
 import numpy as np
 
 from aamcore import defaults
+from aamcore.pose.calibrate import OnlineCalibration
+from aamcore.pose.errors import PoseError
 from aamcore.pose.head_model import HeadModel, openface68
 from aamcore.pose.intrinsics import CameraIntrinsics
 from aamcore.pose.posit import PoseEstimate
+from aamcore.pose.robust import ContourPose, ContourPoseEstimate
 
 POSE_SUBSET = "no_jaw"
-"""The head model's points: without the jaw outline. On tracked AAM fits of rendered
+"""The head model's points for ``posit``: without the jaw outline. On tracked AAM fits of rendered
 sweeps (bench/bench_pose_e2e.py) it gave error sd roll 1.33, pitch 1.56, yaw 3.71 deg,
 1.17 cm against 1.64 / 2.68 / 4.55 / 1.33 keeping it: an AAM's jaw points slide along
 the outline as the head turns."""
@@ -72,7 +77,8 @@ class HeadPose:
     Attributes
     ----------
     estimate : PoseEstimate
-        ``R`` (3, 3) model-to-camera, ``T`` (3,) in millimetres, ``reliable``.
+        ``R`` (3, 3) model-to-camera, ``T`` (3,) in millimetres, ``reliable``
+        and, when it is not, the ``reason``.
     camera : CameraIntrinsics
     """
 
@@ -83,6 +89,19 @@ class HeadPose:
         """The same pose with rotation ``R`` (3, 3) and translation ``T`` (3,) (smoothed)."""
         return HeadPose(dataclasses.replace(self.estimate, R=R, T=T), self.camera)
 
+    @property
+    def reason(self) -> str:
+        """Why the pose is unreliable; empty when it is reliable."""
+        return "" if self.estimate.reliable else self.estimate.reason
+
+    @property
+    def angle_sd_deg(self) -> float:
+        """The largest predicted sd of roll, pitch and yaw, degrees; NaN when not known."""
+        est = self.estimate
+        if isinstance(est, ContourPoseEstimate) and np.all(np.isfinite(est.angle_sd_deg)):
+            return float(np.max(est.angle_sd_deg))
+        return float("nan")
+
 
 class HeadPoseEstimator:
     """Head pose of 68-point (iBUG) landmarks with the OpenFace mean head.
@@ -92,27 +111,65 @@ class HeadPoseEstimator:
     cameras : Cameras, optional
         Assumed field of view :data:`aamcore.defaults.FOV_DEG` by default.
     model : HeadModel, optional
-        The OpenFace mean head without the jaw outline by default.
+        The OpenFace mean head by default (without the jaw outline for ``posit``).
+    method : str
+        One of :data:`aamcore.defaults.POSE_ESTIMATORS` (default
+        :data:`aamcore.defaults.POSE_ESTIMATOR`).
+
+    Raises
+    ------
+    PoseError
+        For an unknown method, or a model the method cannot use.
     """
 
-    def __init__(self, cameras: Cameras | None = None, model: HeadModel | None = None) -> None:
+    def __init__(self, cameras: Cameras | None = None, model: HeadModel | None = None,
+                 method: str = defaults.POSE_ESTIMATOR) -> None:
+        if method not in defaults.POSE_ESTIMATORS:
+            raise PoseError(f"unknown pose estimator {method!r}; choose from "
+                            f"{', '.join(defaults.POSE_ESTIMATORS)}")
         self.cameras = cameras or Cameras()
-        self.model = model or openface68(rigid_subset=POSE_SUBSET)
-        self._posit = self.model.posit()
+        self.method = method
+        self.calibration: OnlineCalibration | None = None
+        if method == "posit":
+            self.model = model or openface68(rigid_subset=POSE_SUBSET)
+            posit = self.model.posit()
+            self._estimate = lambda lm, cam, learn: posit.estimate(self.model.select(lm), cam)
+        elif method == "contour":
+            contour = ContourPose(model)
+            self.model = contour.model
+            self._estimate = lambda lm, cam, learn: contour.estimate(lm, cam)
+        else:
+            self.calibration = OnlineCalibration(model)
+            self.model = self.calibration.model
+            self._estimate = self.calibration.estimate
 
-    def estimate(self, landmarks: np.ndarray, width: int, height: int) -> HeadPose:
-        """The pose of ``landmarks`` (N, 2) found in a frame of ``width`` x ``height``.
+    def estimate(self, landmarks: np.ndarray, width: int, height: int, learn: bool = True
+                 ) -> HeadPose:
+        """The pose of ``landmarks`` (68, 2) found in a frame of ``width`` x ``height``.
+
+        ``learn=False`` keeps ``contour+calib`` from learning the face from this
+        fit (one that failed its test).
 
         Raises
         ------
         PoseError
-            When the landmarks do not fit the head model or POSIT cannot run.
+            When the landmarks give no pose (too few usable points, mostly out of
+            the frame, not fitting the head model).
         IntrinsicsError
             For a frame size the camera cannot have.
         """
         camera = self.cameras.at(width, height)
-        points = self.model.select(np.asarray(landmarks, np.float64))
-        return HeadPose(self._posit.estimate(points, camera), camera)
+        return HeadPose(self._estimate(np.asarray(landmarks, np.float64), camera, learn),
+                        camera)
+
+    def reset(self) -> None:
+        """Forget the face (``contour+calib``: back to the mean head model)."""
+        if self.calibration is not None:
+            self.calibration.reset()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait for a head model refinement under way; whether none is running now."""
+        return self.calibration is None or self.calibration.wait(timeout)
 
 
 class HeadPoseTracker:
@@ -134,25 +191,29 @@ class HeadPoseTracker:
         self.smoother = PoseSmoother() if smooth else None
 
     def reset(self) -> None:
+        """Forget the face: the smoothing, and what the estimator learned of it."""
+        self.estimator.reset()
         if self.smoother is not None:
             self.smoother.reset()
 
     def update(self, landmarks: np.ndarray, width: int, height: int, t: float,
                fit_failed: bool = False) -> HeadPose:
-        """The pose of ``landmarks`` (N, 2) seen at ``t`` seconds in a ``width`` x ``height``
-        frame; a failed fit's pose starts the smoothing afresh.
+        """The pose of ``landmarks`` (68, 2) seen at ``t`` seconds in a ``width`` x ``height``
+        frame; a failed fit (a lost face) starts the smoothing and the estimator afresh.
 
         Raises
         ------
         PoseError, IntrinsicsError
-            As :meth:`HeadPoseEstimator.estimate`; the smoothing starts afresh.
+            As :meth:`HeadPoseEstimator.estimate`; the smoothing starts afresh (what the
+            estimator learned of the face is kept: one unusable fit does not lose it).
         """
         if fit_failed:
             self.reset()
         try:
-            pose = self.estimator.estimate(landmarks, width, height)
+            pose = self.estimator.estimate(landmarks, width, height, learn=not fit_failed)
         except ValueError:
-            self.reset()
+            if self.smoother is not None:
+                self.smoother.reset()
             raise
         if self.smoother is None:
             return pose

@@ -60,7 +60,8 @@ def error_statistics(errors: np.ndarray) -> dict[str, dict[str, float]]:
     return stats
 
 
-def _signed_errors(est: dict[str, float], truth: dict[str, float]) -> list[float]:
+def signed_errors(est: dict[str, float], truth: dict[str, float]) -> list[float]:
+    """Estimate minus truth per parameter (roll, pitch, yaw wrapped to [-180, 180), cm)."""
     out = []
     for name in PARAMETERS:
         d = est[name] - truth[name]
@@ -145,7 +146,7 @@ def evaluate_pose_sequence(
         record, outcome = _frame_record(i, landmarks, truth, intrinsics, model, posit)
         per_frame.append(record)
         if outcome == "estimated":
-            errors.append(_signed_errors(record["estimate"], record["truth"]))
+            errors.append(signed_errors(record["estimate"], record["truth"]))
         else:
             counts[outcome] += 1
     return {"frames": len(per_frame), "estimated": len(errors), **counts,
@@ -199,8 +200,8 @@ def posit_vs_sqpnp(
             uv = uv + rng.normal(0.0, sigma, uv.shape)
             for name, p in posits.items():
                 est = p.estimate(uv, intrinsics)
-                errs[name].append(_signed_errors(pose_parameters(est.R, est.T), truth))
-            errs["SQPNP"].append(_signed_errors(
+                errs[name].append(signed_errors(pose_parameters(est.R, est.T), truth))
+            errs["SQPNP"].append(signed_errors(
                 pose_parameters(*_sqpnp(model.points, uv, intrinsics)), truth))
         results.append({"noise_px": float(sigma),
                         **{k: error_statistics(np.array(v)) for k, v in errs.items()}})

@@ -130,3 +130,34 @@ def gauss_newton(
         return R0, T0
     e = np.concatenate([(P[:, 0] / P[:, 2] - xy[:, 0]) * su, (P[:, 1] / P[:, 2] - xy[:, 1]) * sv])
     return (R, T) if e @ e <= cost0 else (R0, T0)
+
+
+def reprojection_rows(
+    R: np.ndarray, T: np.ndarray, X: np.ndarray, xy: np.ndarray, fxy: np.ndarray
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Pixel residuals of model points against their images, and their Jacobian.
+
+    Parameters
+    ----------
+    R, T : (3, 3) and (3,) arrays
+        Pose of the model; the rotation update is ``R <- exp([omega]x) R``.
+    X : (N, 3) array
+        Model points.
+    xy : (N, 2) array
+        Normalised image coordinates.
+    fxy : (2,) array
+        Focal lengths, to measure residuals in pixels.
+
+    Returns
+    -------
+    r : (2N,) array
+        x residuals of all points, then y residuals.
+    J : (2N, 6) array
+        Derivatives with respect to ``(omega, T)``.
+
+    None when a point is at or behind the camera.
+    """
+    n = len(X)
+    J = np.empty((2 * n, 6))
+    r = _linearise(R, T, X, xy, np.full(n, float(fxy[0])), np.full(n, float(fxy[1])), J)
+    return None if r is None else (r, J)

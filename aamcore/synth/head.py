@@ -19,6 +19,7 @@ from functools import lru_cache
 import numpy as np
 
 from aamcore.pose.align import similarity_transform
+from aamcore.pose.contour import OutlineModel, build_outline_model
 from aamcore.pose.head_model import HeadModel, openface68
 from aamcore.pose.mesh import Mesh, SurfacePoints, lift_frontal, mediapipe_canonical_mesh
 
@@ -53,6 +54,16 @@ class SynthHead:
         assert self.mesh.uvs is not None
         corners = self.mesh.uvs[self.mesh.triangles[self.landmarks.triangle]]  # (68, 3, 2)
         return np.einsum("mk,mkd->md", self.landmarks.bary, corners)
+
+    def outline_model(self) -> OutlineModel:
+        """Slices of the mesh through the jaw landmarks (see :mod:`aamcore.pose.contour`)."""
+        cached = self.__dict__.get("_outline")
+        if cached is None:
+            pts = self.landmarks_3d
+            cached = build_outline_model(self.mesh, pts[:17, :2], pts[30, :2], np.arange(17),
+                                         name="synth_mediapipe_outline")
+            object.__setattr__(self, "_outline", cached)
+        return cached
 
     def head_model(self) -> HeadModel:
         """The exact 3D landmarks of this head as a :class:`HeadModel` (scheme ibug68)."""

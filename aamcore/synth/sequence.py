@@ -2,8 +2,8 @@
 
 A sequence sweeps one pose parameter at a time, as in the thesis's
 experiments (figure 14.4): yaw, pitch and roll from 0 to +40, to -40 and back
-to 0 degrees at 60 cm, and the distance from 60 cm out to 120, in to 40 and
-back to 60.
+to 0 degrees at 60 cm (or to another largest angle), and the distance from 60
+cm out to 120, in to 40 and back to 60.
 ``synthesize`` writes ``video.mp4`` (mp4v), one JSON file per frame under
 ``frames/`` (exact 2D landmarks, their visibility, R, T, angles and the
 intrinsics) and ``sequence.json`` (intrinsics, the head's exact 3D landmarks,
@@ -58,21 +58,28 @@ class PoseTruth:
                 "distance_mm": float(np.linalg.norm(self.T)), "sweep": self.sweep}
 
 
-def sweep_poses(sweep: str, frames: int) -> list[PoseTruth]:
+def sweep_poses(
+    sweep: str, frames: int, max_angle_deg: float = MAX_ANGLE_DEG
+) -> list[PoseTruth]:
     """Poses of one sweep (``yaw``, ``pitch``, ``roll``, ``distance``) or of ``all`` four.
 
-    ``all`` gives the four sweeps one after the other, sharing ``frames``.
+    ``all`` gives the four sweeps one after the other, sharing ``frames``. An
+    angle sweep goes from 0 to ``+max_angle_deg``, to ``-max_angle_deg`` and
+    back to 0 (default 40, the thesis's range).
 
     Raises
     ------
     ValueError
-        For an unknown sweep or fewer frames than sweeps.
+        For an unknown sweep, fewer frames than sweeps or an angle outside (0, 90).
     """
+    if not 0.0 < max_angle_deg < 90.0:
+        raise ValueError(f"max_angle_deg must lie in (0, 90), got {max_angle_deg}")
     if sweep == "all":
         if frames < len(SWEEPS):
             raise ValueError(f"sweep 'all' needs at least {len(SWEEPS)} frames, got {frames}")
         counts = np.diff(np.linspace(0, frames, len(SWEEPS) + 1).round().astype(int))
-        return [p for name, n in zip(SWEEPS, counts, strict=True) for p in sweep_poses(name, n)]
+        return [p for name, n in zip(SWEEPS, counts, strict=True)
+                for p in sweep_poses(name, n, max_angle_deg)]
     if sweep not in SWEEPS:
         raise ValueError(f"unknown sweep {sweep!r}; choose from {SWEEPS + ('all',)}")
     if frames < 1:
@@ -87,7 +94,7 @@ def sweep_poses(sweep: str, frames: int) -> list[PoseTruth]:
             reach = far - BASE_DISTANCE_MM if np.sin(t) > 0 else BASE_DISTANCE_MM - near
             distance = BASE_DISTANCE_MM + reach * np.sin(t)
         else:
-            angles[sweep] = MAX_ANGLE_DEG * np.sin(t)
+            angles[sweep] = max_angle_deg * np.sin(t)
         R = rotation_from_rpy(angles["roll"], angles["pitch"], angles["yaw"])
         poses.append(PoseTruth(R, np.array([0.0, 0.0, distance]), sweep))
     return poses
@@ -99,6 +106,29 @@ def exact_landmarks(
     """The 68 landmarks' pixel positions under each pose, each (68, 2)."""
     points = head.landmarks_3d
     return [camera.project(points, p.R, p.T) for p in poses]
+
+
+def annotated_landmarks(
+    head: SynthHead, poses: list[PoseTruth], camera: CameraIntrinsics
+) -> list[np.ndarray]:
+    """The 68 landmarks as a 300-W annotator marks them, under each pose, each (68, 2).
+
+    The 51 inner points are the exact images of the head's fixed points (also
+    when hidden: a guess at a hidden point is where it would be); the 17 jaw
+    points lie on the head's outline as seen, found by landmark marching on
+    the head mesh (:mod:`aamcore.pose.contour`): on the far side of a turned
+    head they move onto the cheek's occluding contour instead of staying on
+    hidden skin.
+    """
+    outline = head.outline_model()
+    points = head.landmarks_3d
+    out = []
+    for p in poses:
+        uv = camera.project(points, p.R, p.T)
+        jaw, _, _ = outline.silhouette(p.R, p.T, camera.K)
+        uv[outline.landmarks] = camera.project(jaw, p.R, p.T)
+        out.append(uv)
+    return out
 
 
 def default_texture(head: SynthHead) -> FaceTexture:
@@ -173,6 +203,7 @@ def synthesize(
     camera: CameraIntrinsics | None = None,
     texture: FaceTexture | None = None,
     fps: float = 30.0,
+    max_angle_deg: float = MAX_ANGLE_DEG,
 ) -> Path:
     """Write a ground-truth sequence to ``out_dir``; returns the ``sequence.json`` path.
 
@@ -191,20 +222,23 @@ def synthesize(
         Default: from an LFPW photo (:func:`default_texture`).
     fps : float
         Frame rate written in the video.
+    max_angle_deg : float
+        Largest angle of the angle sweeps, degrees (default 40).
 
     Raises
     ------
     ValueError
-        For a bad sweep or frame count; OSError if the video cannot be written.
+        For a bad sweep, frame count or angle; OSError if the video cannot be written.
     """
     out = Path(out_dir)
-    poses = sweep_poses(sweep, frames)
+    poses = sweep_poses(sweep, frames, max_angle_deg)
     camera = camera or CameraIntrinsics.from_fov(640, 480, 60.0)
     head = synth_head()
     texture = texture or default_texture(head)
     video_path = _write_frames(out, poses, camera, head, texture, fps)
     summary = {
-        "frames": frames, "sweep": sweep, "fps": fps, "video": video_path.name,
+        "frames": frames, "sweep": sweep, "fps": fps, "max_angle_deg": max_angle_deg,
+        "video": video_path.name,
         "intrinsics": camera.to_json(), "scheme": "ibug68",
         "model_points_mm": head.landmarks_3d.tolist(),
         "mesh": "MediaPipe canonical face mesh in the openface_mean68 frame (mm, OpenCV axes)",

@@ -38,6 +38,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--photo", type=Path, help="texture photo (default: a frontal LFPW face)")
     p.add_argument("--landmarks", type=Path, help="the photo's 68-point .pts file")
     p.add_argument("--fps", type=float, default=30.0)
+    p.add_argument("--max-angle", type=float, default=40.0,
+                   help="largest roll/pitch/yaw of the angle sweeps, degrees, below 90 "
+                        "(default 40)")
     p.set_defaults(func=run_synth)
 
     e = eval_group(sub).add_parser(
@@ -114,7 +117,8 @@ def run_synth(args: argparse.Namespace) -> int:
         texture = face_texture(
             synth_head(), read_image(args.photo), read_pts(args.landmarks), str(args.photo)
         )
-    path = synthesize(args.out, args.frames, args.sweep, _camera(args), texture, args.fps)
+    path = synthesize(args.out, args.frames, args.sweep, _camera(args), texture, args.fps,
+                      args.max_angle)
     print(f"wrote {args.frames} frames to {args.out} ({path.name}, video.mp4, frames/)")
     return 0
 

@@ -1,1 +1,1 @@
-"""The head-pose service: POSIT on each fit (:mod:`services.pose.service`)."""
+"""The head-pose service: the head pose of each fit (:mod:`services.pose.service`)."""

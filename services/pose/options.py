@@ -10,7 +10,7 @@ from services.bus.options import OptionError, Options, in_range, option
 
 @dataclass(frozen=True)
 class PoseOptions(Options):
-    """The camera the poses are estimated for."""
+    """The camera the poses are estimated for, and how."""
 
     fov: float = option(defaults.FOV_DEG, "assumed horizontal field of view, degrees",
                         check=in_range(1, 179))
@@ -18,6 +18,11 @@ class PoseOptions(Options):
                                      metavar="FILE")
     capacity: int = option(8, "latest fits kept while busy", check=in_range(1, 1024))
     smooth: bool = option(True, "smooth the pose over time (One Euro filter)")
+    estimator: str = option(defaults.POSE_ESTIMATOR,
+                            "head-pose estimator: contour (jaw landmarks matched to the outline "
+                            "seen), posit (the thesis's, without the jaw), contour+calib "
+                            "(contour with a head model learned from the person)",
+                            choices=defaults.POSE_ESTIMATORS)
 
     def __post_init__(self) -> None:
         super().__post_init__()

@@ -1,21 +1,25 @@
 """The head-pose service: the pose of each fit with landmarks, published as ``HeadPose``.
 
-``aamtrack service pose [--fov DEG | --calibration FILE]``
+``aamtrack service pose [--fov DEG | --calibration FILE] [--estimator contour|posit|contour+calib]``
 
 A thin wrapper over :class:`aamcore.pose.estimator.HeadPoseEstimator`: the
 camera is read from a calibration file or assumed from a horizontal field of
 view, at the size of the frame the fit was made on (the fit carries it). A
-fit with landmarks gets a pose; when the fit itself failed, the pose is
-published flagged ``reliable = False``. Fits without landmarks (no face) get
-none.
+fit with landmarks gets a pose; when the fit itself failed, or the estimator
+does not trust its answer (a face in profile, landmarks outside the frame or
+that no head explains), the pose is published with ``reliable = False`` and
+the reason. Fits without landmarks (no face) get none, nor do landmarks the
+estimator refuses (PoseError); the status line counts each reason.
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Sequence
 
 from aamcore.pose import IntrinsicsError, PoseError
 from aamcore.pose.estimator import Cameras, HeadPoseEstimator, HeadPoseTracker
+from aamcore.pose.reliability import reason_key
 from proto import Fit, HeadPose, ProtoError
 from services.bus.args import parse_service_args
 from services.bus.process import init_process
@@ -37,41 +41,70 @@ def pose_message(svc: Service, fit: Fit, poses: HeadPoseTracker) -> HeadPose:
     pose = poses.update(fit.landmarks, fit.image_width, fit.image_height, t, fit.failed)
     est, cam = pose.estimate, pose.camera
     roll, pitch, yaw = est.rpy
+    reason = f"fit failed: {fit.failure_reason}" if fit.failed else pose.reason
     return HeadPose(
         svc.header_for(fit), est.R, est.T, float(roll), float(pitch), float(yaw), cam.K,
         fit.image_width, fit.image_height, poses.estimator.cameras.source,
-        int(est.iterations), bool(est.reliable and not fit.failed),
+        int(est.iterations), not reason, reason, pose.angle_sd_deg,
     )
+
+
+class PoseCounts:
+    """What the status line counts: fits without a face, unreliable poses and fits without
+    a pose, by the short key of their reason."""
+
+    def __init__(self) -> None:
+        self.no_face = 0
+        self.unreliable: Counter[str] = Counter()
+        self.no_pose: Counter[str] = Counter()
+
+    def line(self, refinements: int | None = None) -> str:
+        """``"2 fits without a face; unreliable: 3 profile; no pose: 1 mostly out of ..."``,
+        and the head model refinements since the face was found when there is a calibration."""
+        parts = [f"{self.no_face} fits without a face"]
+        if refinements is not None:
+            parts.append(f"head model refined {refinements} times")
+        for name, counts in (("unreliable", self.unreliable), ("no pose", self.no_pose)):
+            if counts:
+                parts.append(f"{name}: " + ", ".join(f"{n} {k}" for k, n in
+                                                     counts.most_common(6)))
+        return "; ".join(parts)
 
 
 def serve(svc: Service, poses: HeadPoseTracker, capacity: int) -> None:
     """Estimate poses until stopped."""
-    no_face = 0
+    counts = PoseCounts()
     fits = svc.messages("fit", capacity=capacity)
     estimator = poses.estimator
-    svc.ready(f"head model {estimator.model.name}, camera {estimator.cameras.source}")
+    svc.ready(f"{estimator.method} on head model {estimator.model.name}, camera "
+              f"{estimator.cameras.source}")
     for got in fits:
         fit = got.message
         assert isinstance(fit, Fit)
         if len(fit.landmarks) == 0:
             poses.reset()
-            no_face += 1
-            svc.set_state("running", f"{no_face} fits without a face")
-            continue
-        try:
-            svc.publish(pose_message(svc, fit, poses))
-        except (PoseError, IntrinsicsError, ProtoError) as exc:
-            svc.reject("fit", f"no pose: {exc}")
+            counts.no_face += 1
+        else:
+            try:
+                pose = pose_message(svc, fit, poses)
+                svc.publish(pose)
+                if not pose.reliable:
+                    counts.unreliable[reason_key(pose.reason)] += 1
+            except (PoseError, IntrinsicsError, ProtoError) as exc:
+                counts.no_pose[reason_key(str(exc))] += 1
+                svc.reject("fit", f"no pose: {exc}")
+        calib = estimator.calibration
+        svc.set_state("running", counts.line(None if calib is None else calib.refinements))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: ``python -m services.pose.service``."""
-    args = parse_service_args(NAME, "Head pose (POSIT) from each fit.", PoseOptions, argv)
+    args = parse_service_args(NAME, "Head pose from each fit.", PoseOptions, argv)
     log = init_process(NAME, args.verbose)
     opts: PoseOptions = args.options
     try:
-        poses = HeadPoseTracker(HeadPoseEstimator(Cameras(opts.fov, opts.calibration)),
-                                opts.smooth)
+        estimator = HeadPoseEstimator(Cameras(opts.fov, opts.calibration), method=opts.estimator)
+        poses = HeadPoseTracker(estimator, opts.smooth)
     except (PoseError, IntrinsicsError, OSError) as exc:
         log.error("cannot set up head pose: %s", exc)
         return 1

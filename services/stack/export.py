@@ -48,7 +48,8 @@ def face_result(fit: Fit, pose: HeadPose | None, expression: Expression | None, 
                       rotation=np.asarray(pose.rotation), translation_mm=np.asarray(
                           pose.translation_mm), roll_deg=pose.roll_deg,
                       pitch_deg=pose.pitch_deg, yaw_deg=pose.yaw_deg,
-                      pose_reliable=pose.reliable, **common)
+                      pose_reliable=pose.reliable,
+                      **{**common, "reason": fit.failure_reason or pose.reason})
 
 
 def _by_frame(messages: Iterable[Message], kind: str) -> dict[tuple[str, int], Message]:

@@ -28,7 +28,7 @@ from services.stack.registry import SERVICES
 RUN_OPTIONS: dict[str, tuple[str, ...] | None] = {
     "source": None,
     "fitter": ("model", "model_limit", "model_images", "algorithm", "failure_test", "warp"),
-    "pose": ("fov", "calibration"),
+    "pose": ("fov", "calibration", "estimator"),
     "expression": ("classifier",),
     "rerun": ("rrd", "serve", "viewer"),
 }

@@ -57,3 +57,19 @@ def test_a_frame_without_a_face_and_a_bad_video(model_path: Path, tmp_path: Path
     bad.write_bytes(b"not a video")
     with pytest.raises(OSError, match="not a video"):
         next(tracker.process_video(bad))
+
+
+def test_the_pose_estimator_can_be_chosen(
+    model_path: Path, single_face: Path, results: list[FaceResult]
+) -> None:
+    from aamcore.io.video import video_frames
+    from aamcore.pose.errors import PoseError
+
+    posit = FaceTracker(model_path, pose_estimator="posit")
+    assert posit.pose.estimator.method == "posit"
+    assert FaceTracker(model_path).pose.estimator.method == "contour"
+    for frame, contour in zip(video_frames(single_face)[:5], results[:5], strict=False):
+        r = posit.process(frame)
+        assert r.success and r.pose_reliable and abs(r.yaw_deg - contour.yaw_deg) < 10.0
+    with pytest.raises(PoseError, match="unknown pose estimator"):
+        FaceTracker(model_path, pose_estimator="eos")

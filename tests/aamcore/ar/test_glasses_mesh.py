@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from aamcore.ar.glasses_mesh import (
+    ANCHOR_NAMES,
     LENS_PARTS,
     OPAQUE_PARTS,
     GlassesDesign,
@@ -85,3 +86,15 @@ def test_bad_landmarks_are_refused(head) -> None:
     bad[5, 1] = np.inf
     with pytest.raises(ValueError, match="finite"):
         build_glasses(bad)
+
+
+def test_glasses_anchor_points() -> None:
+    glasses = mean_head_glasses()
+    anchors = glasses.anchor_points()
+    assert anchors.shape == (len(ANCHOR_NAMES), 3) and np.all(np.isfinite(anchors))
+    assert np.allclose(anchors[:2], glasses.lens_centres)
+    right, left = anchors[3], anchors[4]
+    assert right[0] < anchors[0, 0] < anchors[2, 0] < anchors[1, 0] < left[0]
+    assert anchors[2, 1] < anchors[0, 1]  # the bridge is above the lens centres
+    hinges = glasses.part_vertices("temple_right")
+    assert np.linalg.norm(hinges - right, axis=1).min() < 3.0

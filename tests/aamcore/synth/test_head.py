@@ -27,3 +27,12 @@ def test_landmarks_lie_on_the_mesh_below_the_openface_points() -> None:
     assert np.all((uv >= 0) & (uv <= 1))
     model = head.head_model()
     assert model.scheme == "ibug68" and np.allclose(model.points, pts)
+
+
+def test_the_outline_model_slices_the_mesh_through_the_jaw() -> None:
+    head = synth_head()
+    outline = head.outline_model()
+    assert outline is head.outline_model()  # built once
+    assert outline.landmarks.tolist() == list(range(17)) and len(outline.starts) == 17
+    points, _, _ = outline.silhouette(np.eye(3), np.array([0.0, 0.0, 600.0]), np.eye(3))
+    assert np.abs(points[:, :2] - head.landmarks_3d[:17, :2]).max() < 3.0

@@ -12,7 +12,13 @@ from aamcore.pose.intrinsics import CameraIntrinsics
 from aamcore.pose.posit import Posit
 from aamcore.pose.rotation import rotation_angle_deg, rpy_from_rotation
 from aamcore.synth.head import synth_head
-from aamcore.synth.sequence import exact_landmarks, load_sequence, sweep_poses, synthesize
+from aamcore.synth.sequence import (
+    annotated_landmarks,
+    exact_landmarks,
+    load_sequence,
+    sweep_poses,
+    synthesize,
+)
 from aamcore.synth.texture import FaceTexture
 
 
@@ -24,6 +30,31 @@ def test_angle_sweeps_reach_40_degrees(sweep: str) -> None:
     assert angles[0] == 0.0
     assert np.max(np.abs(np.diff(angles))) < 4.0  # smooth
     assert all(p.T[2] == 600.0 and p.sweep == sweep for p in poses)
+
+
+def test_angle_sweeps_reach_any_angle_below_90() -> None:
+    yaws = [rpy_from_rotation(p.R).yaw for p in sweep_poses("yaw", 40, 60.0)]
+    assert max(yaws) == pytest.approx(60.0) and min(yaws) == pytest.approx(-60.0)
+    pitches = [rpy_from_rotation(p.R).pitch for p in sweep_poses("all", 80, 60.0)]
+    assert max(pitches) == pytest.approx(60.0)
+    for bad in (0.0, 90.0, 95.0):
+        with pytest.raises(ValueError, match="max_angle"):
+            sweep_poses("yaw", 10, bad)
+
+
+def test_annotated_landmarks_differ_from_exact_only_on_the_jaw() -> None:
+    head = synth_head()
+    camera = CameraIntrinsics.from_fov(640, 480, 60.0)
+    poses = sweep_poses("yaw", 8, 60.0)
+    annotated = annotated_landmarks(head, poses, camera)
+    exact = exact_landmarks(head, poses, camera)
+    for a, e in zip(annotated, exact, strict=True):
+        assert np.array_equal(a[17:], e[17:])
+    assert np.abs(annotated[0][:17] - exact[0][:17]).max() < 3.0  # frontal: the jaw itself
+    # At +60 the subject's right jaw (image left) is hidden: the annotator marks the
+    # cheek's outline, outward of where the hidden jaw point is seen through the head.
+    turned = int(np.argmax([rpy_from_rotation(p.R).yaw for p in poses]))
+    assert exact[turned][2, 0] - annotated[turned][2, 0] > 5.0
 
 
 def test_distance_sweep_and_all() -> None:

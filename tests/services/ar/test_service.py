@@ -36,7 +36,7 @@ def frontal_pose(width: int, height: int, distance_mm: float = 600.0) -> HeadPos
     cam = CameraIntrinsics.from_fov(width, height, 60.0)
     return HeadPose(Header.now("cam0", 2, "pose", capture_time_ns=77), np.eye(3),
                     np.array([0.0, 0.0, distance_mm]), 0.0, 0.0, 0.0, cam.K, width, height,
-                    "assumed:fov60", 3, True)
+                    "assumed:fov60", 3, True, "", 0.5)
 
 
 def test_glasses_are_drawn_around_the_eyes_and_nowhere_far_away(compositor: Compositor) -> None:

@@ -27,8 +27,11 @@ def test_synth_then_eval_the_written_sequence(capsys: pytest.CaptureFixture[str]
                                               tmp_path: Path) -> None:
     out = tmp_path / "seq"
     assert main(["synth", "--out", str(out), "--frames", "4", "--sweep", "yaw",
-                 "--width", "160", "--height", "120"]) == 0
+                 "--width", "160", "--height", "120", "--max-angle", "60"]) == 0
     assert (out / "video.mp4").is_file() and len(list((out / "frames").glob("*.json"))) == 4
+    assert json.loads((out / "sequence.json").read_text())["max_angle_deg"] == 60.0
+    frame1 = json.loads((out / "frames" / "000001.json").read_text())
+    assert frame1["rpy_deg"]["yaw"] == pytest.approx(60.0)
     capsys.readouterr()
     assert main(["eval", "pose", "--sequence", str(out), "--noise", "0", "--model", "exact"]) == 0
     text = capsys.readouterr().out

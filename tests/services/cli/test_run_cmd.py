@@ -17,6 +17,9 @@ def test_service_command_runs_one_service(
 ) -> None:
     done = run_cli("service", "pose", "--help", timeout=60)
     assert done.returncode == 0 and "--fov" in done.stdout and "--connect" in done.stdout
+    assert "--estimator {contour,posit,contour+calib}" in done.stdout
+    run = run_cli("run", "--help", timeout=60)
+    assert run.returncode == 0 and "--estimator" in run.stdout
 
 
 def _model_of_another_version(model_path: Path, out: Path) -> Path:

@@ -1,21 +1,31 @@
-"""services.pose.service: POSIT on hand-marked faces, cameras from a FOV or a calibration."""
+"""services.pose.service: poses of hand-marked faces (contour and POSIT), reasons, counts,
+cameras from a FOV or a calibration."""
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 
+from aamcore import defaults
 from aamcore.io.pts import read_pts
+from aamcore.pose.errors import PoseError
 from aamcore.pose.estimator import Cameras, HeadPoseEstimator, HeadPoseTracker
 from aamcore.pose.head_model import openface68
+from aamcore.pose.reliability import reason_key
 from proto import Fit, Header, decode, encode
 from services.bus.connection import BusOptions
+from services.bus.options import OptionError
 from services.bus.session import Service
-from services.pose.service import pose_message
+from services.pose.options import PoseOptions
+from services.pose.service import PoseCounts, pose_message
+from services.stack.launcher import Stack
+from services.stack.options import StackOptions
+from services.stack.recorder import load_messages
 
 
 def marked_face(data_dir: Path, name: str) -> tuple[np.ndarray, tuple[int, int]]:
@@ -37,12 +47,14 @@ def svc() -> Service:
         yield s
 
 
+@pytest.mark.parametrize("method", ["posit", "contour"])
 def test_pose_of_a_frontal_face_is_in_front_of_the_camera_and_upright(
-    svc: Service, data_dir: Path
+    svc: Service, data_dir: Path, method: str
 ) -> None:
     points, size = marked_face(data_dir, "einstein")
     model = openface68(rigid_subset=True)
-    estimator = HeadPoseEstimator(Cameras(60.0, None), model)
+    estimator = HeadPoseEstimator(Cameras(60.0, None), model if method == "posit" else None,
+                                  method)
     poses = HeadPoseTracker(estimator)
     pose = decode(encode(pose_message(svc, fit_of(points, size), poses)), "pose")
     assert pose.header.frame_index == 9 and pose.header.capture_time_ns == 123
@@ -88,3 +100,64 @@ def test_cameras_from_a_calibration_file_scale_to_the_frame_size(tmp_path: Path)
     assert cameras.at(320, 240).K[0, 0] == pytest.approx(400)
     assumed = Cameras(90.0, None).at(640, 480)
     assert assumed.K[0, 0] == pytest.approx(320)
+
+
+def test_landmarks_outside_the_frame_give_an_unreliable_pose_with_its_reason_or_none(
+    svc: Service, data_dir: Path
+) -> None:
+    points, size = marked_face(data_dir, "einstein")
+    poses = HeadPoseTracker(HeadPoseEstimator())
+    half_out = points + [0.3 * np.ptp(points[:, 0]) + size[0] - points[:, 0].max(), 0.0]
+    pose = decode(encode(pose_message(svc, fit_of(half_out, size), poses)), "pose")
+    assert not pose.reliable and pose.reason.startswith("points outside the frame")
+    with pytest.raises(PoseError, match="out of the frame"):
+        pose_message(svc, fit_of(points + [3.0 * size[0], 0.0], size), poses)
+
+
+def test_a_failed_fit_says_so_and_a_good_one_has_a_predicted_sd(
+    svc: Service, data_dir: Path
+) -> None:
+    points, size = marked_face(data_dir, "einstein")
+    poses = HeadPoseTracker(HeadPoseEstimator())
+    good = pose_message(svc, fit_of(points, size), poses)
+    assert good.reliable and good.reason == "" and 0.0 < good.angle_sd_deg < 3.0
+    failed = pose_message(svc, fit_of(points, size, failed=True), poses)
+    assert not failed.reliable and failed.reason == "fit failed: lost"
+    posit = HeadPoseTracker(HeadPoseEstimator(method="posit"))
+    assert np.isnan(pose_message(svc, fit_of(points, size), posit).angle_sd_deg)
+
+
+def test_the_estimator_option() -> None:
+    assert PoseOptions().estimator == defaults.POSE_ESTIMATOR == "contour"
+    assert PoseOptions(estimator="contour+calib").estimator == "contour+calib"
+    with pytest.raises(OptionError, match="--estimator 'eos': choose one of contour, posit"):
+        PoseOptions(estimator="eos")
+
+
+def test_the_status_line_counts_reasons() -> None:
+    counts = PoseCounts()
+    counts.no_face = 2
+    assert counts.line() == "2 fits without a face"
+    counts.unreliable[reason_key("profile: yaw +80 deg")] += 3
+    counts.no_pose[reason_key("mostly out of the frame: only 2 inner landmarks")] += 1
+    assert counts.line() == ("2 fits without a face; unreliable: 3 profile; "
+                             "no pose: 1 mostly out of the frame")
+    assert counts.line(4).startswith("2 fits without a face; head model refined 4 times; ")
+
+
+def test_the_stack_runs_the_calibrating_estimator_and_its_status_counts(
+    single_face: Path, tmp_path: Path, stack_options: Callable[..., StackOptions],
+) -> None:
+    rec = tmp_path / "run.rec"
+    opts = stack_options(single_face, ar=False, record=str(rec), estimator="contour+calib")
+    with Stack(opts) as stack:
+        assert stack.wait() == "done"
+    messages = load_messages(rec)
+    fits = [m for m in messages if m.KIND == "fit" and len(m.landmarks)]
+    poses = [m for m in messages if m.KIND == "pose"]
+    assert len(fits) >= 70 and len(poses) == len(fits)
+    assert all(p.reliable == (p.reason == "") for p in poses)
+    assert sum(p.reliable for p in poses) >= 0.9 * len(poses)
+    assert all(0.0 < p.angle_sd_deg < 3.0 for p in poses if p.reliable)
+    status = [m for m in messages if m.KIND == "status" and m.service == "pose"]
+    assert status and "fits without a face; head model refined" in status[-1].message
