@@ -105,13 +105,14 @@ class FitRecord:
 
 
 def held_out(aam: AAM, samples: Sequence[FaceSample]) -> list[FaceSample]:
-    """The ``samples`` whose image and subject the model was not trained on."""
-    names = set(aam.summary.get("train_images", []))
+    """The ``samples`` whose image (by content, :meth:`FaceSample.image_id`) and subject the
+    model was not trained on."""
+    trained = set(aam.summary.get("train_images", []))
     subjects = set(aam.summary.get("train_subjects", []))
     return [
         s
         for s in samples
-        if s.image_path.stem not in names and (s.subject is None or s.subject not in subjects)
+        if s.image_id() not in trained and (s.subject is None or s.subject not in subjects)
     ]
 
 

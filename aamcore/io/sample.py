@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,6 +36,22 @@ class FaceSample:
     def load_image(self) -> np.ndarray:
         """Read the image as uint8 BGR, shape (H, W, 3)."""
         return read_image(self.image_path)
+
+    def image_id(self) -> str:
+        """The image's identity: a digest of its file's bytes (16 hex digits).
+
+        Unlike the file name it tells apart ``lfpw/trainset/image_0001.png``
+        and ``lfpw/testset/image_0001.png``, and it survives a moved data folder.
+        """
+        return image_digest(self.image_path)
+
+
+def image_digest(path: str | Path) -> str:
+    """SHA-1 of a file's bytes, its first 16 hex digits (an unreadable file: its resolved path)."""
+    try:
+        return hashlib.sha1(Path(path).read_bytes()).hexdigest()[:16]
+    except OSError:
+        return str(Path(path).resolve())
 
 
 def read_image(path: str | Path, grey: bool = False) -> np.ndarray:

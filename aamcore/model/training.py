@@ -229,7 +229,7 @@ def train_aam(
         "images": n,
         "subjects": len({s.subject for s in kept if s.subject is not None}),
         "train_subjects": sorted({s.subject for s in kept if s.subject is not None}),
-        "train_images": [s.image_path.stem for s in kept],
+        "train_images": [s.image_id() for s in kept],
         "skipped": sampled.skipped,
         "config": asdict(config),
         "train_seconds": round(time.perf_counter() - start, 3),

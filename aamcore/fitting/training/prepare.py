@@ -20,7 +20,7 @@ from aamcore.model.cache import cache_key, cached_file, training_samples
 from aamcore.model.training import TrainConfig, train_aam
 from aamcore.progress import bar, note
 
-RECIPE = "fitting v6"
+RECIPE = "fitting v7"
 """Names the training below in the cache key: change it when the training changes."""
 
 

@@ -43,3 +43,24 @@ def test_landmark_errors_fall_back_to_landmark_box(imm_fit_model, imm_test) -> N
     moved = replace(sample, points=sample.points * 0.3)
     records = landmark_errors(fitter, [sample, moved])
     assert [r.start for r in records] == ["haar", "landmarks"]
+
+
+def test_held_out_tells_images_by_content_not_by_name(lfpw_fit_model_path, tmp_path) -> None:
+    import shutil
+
+    from aamcore.fitting.model import FittingModel
+    from aamcore.io import load_annotated_folder
+
+    aam = FittingModel.load(lfpw_fit_model_path).aam
+    trained = [s for s in load_annotated_folder(aam.summary["source"].split(" [")[0]).samples
+               if s.image_id() in set(aam.summary["train_images"])][:2]
+    other = load_annotated_folder(trained[0].image_path.parent, limit=400).samples[-1]
+    assert other.image_id() not in set(aam.summary["train_images"])
+    # A test folder that reuses a training image's name for another photo, and a training
+    # photo under a new name.
+    shutil.copy(other.image_path, tmp_path / trained[0].image_path.name)
+    shutil.copy(other.image_path.with_suffix(".pts"), tmp_path / f"{trained[0].image_path.stem}.pts")
+    shutil.copy(trained[1].image_path, tmp_path / f"renamed{trained[1].image_path.suffix}")
+    shutil.copy(trained[1].image_path.with_suffix(".pts"), tmp_path / "renamed.pts")
+    rest = held_out(aam, load_annotated_folder(tmp_path).samples)
+    assert [s.image_path.name for s in rest] == [trained[0].image_path.name]
