@@ -59,7 +59,8 @@ def test_held_out_tells_images_by_content_not_by_name(lfpw_fit_model_path, tmp_p
     # A test folder that reuses a training image's name for another photo, and a training
     # photo under a new name.
     shutil.copy(other.image_path, tmp_path / trained[0].image_path.name)
-    shutil.copy(other.image_path.with_suffix(".pts"), tmp_path / f"{trained[0].image_path.stem}.pts")
+    stem = trained[0].image_path.stem
+    shutil.copy(other.image_path.with_suffix(".pts"), tmp_path / f"{stem}.pts")
     shutil.copy(trained[1].image_path, tmp_path / f"renamed{trained[1].image_path.suffix}")
     shutil.copy(trained[1].image_path.with_suffix(".pts"), tmp_path / "renamed.pts")
     rest = held_out(aam, load_annotated_folder(tmp_path).samples)
