@@ -38,6 +38,8 @@ from services.stack.recorder import read_recording
 
 RERUN = Path(sys.executable).with_name("rerun")
 ENV = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO_ROOT)}
+KEEP = Path(tempfile.gettempdir()) / "aamtrack-reliability"
+"""Where recordings that fail their check are kept for a look."""
 
 
 def interrupted_run(argv: list[str], folder: Path, k: int, rng: random.Random) -> dict:
@@ -57,8 +59,14 @@ def interrupted_run(argv: list[str], folder: Path, k: int, rng: random.Random) -
         hung = True
         os.killpg(proc.pid, signal.SIGKILL)
         code = proc.wait(10)
-    verified = rrd.exists() and subprocess.run(
-        [str(RERUN), "rrd", "verify", str(rrd)], capture_output=True, timeout=60).returncode == 0
+    check = subprocess.run([str(RERUN), "rrd", "verify", str(rrd)], capture_output=True,
+                           text=True, timeout=60) if rrd.exists() else None
+    verified = check is not None and check.returncode == 0
+    if check is not None and not verified:
+        kept = KEEP / rrd.name
+        KEEP.mkdir(parents=True, exist_ok=True)
+        kept.write_bytes(rrd.read_bytes())
+        print(f"  {rrd.name} does not verify (kept as {kept}): {check.stderr.strip()[-300:]}")
     loads = rec.exists() and read_recording(rec).stopped == ""
     return {"delay": delay, "code": code, "hung": hung, "rrd": verified, "rec": loads,
             "rrd_made": rrd.exists()}
@@ -75,7 +83,8 @@ def interrupts(runs: int, model: Path, classifier: Path, seed: int) -> bool:
             rows.append(interrupted_run(argv, Path(tmp), k, rng))
             r = rows[-1]
             print(f"run {k + 1:>3}: SIGINT after {r['delay']:4.1f} s -> exit {r['code']}, "
-                  f"{'HUNG, ' if r['hung'] else ''}rrd {'ok' if r['rrd'] else 'BAD'}, "
+                  f"{'HUNG, ' if r['hung'] else ''}rrd "
+                  f"{'ok' if r['rrd'] else 'BAD' if r['rrd_made'] else 'MISSING'}, "
                   f"rec {'ok' if r['rec'] else 'BAD'}", flush=True)
     hangs = sum(r["hung"] for r in rows)
     bad_rrd = sum(not r["rrd"] for r in rows)

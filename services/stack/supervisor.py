@@ -24,6 +24,7 @@ import multiprocessing
 import os
 import signal
 import sys
+import threading
 import time
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -62,6 +63,31 @@ def environment(env: Mapping[str, str]) -> Iterator[None]:
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+
+
+@contextlib.contextmanager
+def interrupts_ignored_by_children() -> Iterator[None]:
+    """Start children that ignore SIGINT until they install their own stop handlers.
+
+    A terminal's Ctrl-C reaches the whole process group; a service still
+    importing its modules would die of it with a ``KeyboardInterrupt``
+    traceback. A child inherits an ignored SIGINT across exec (a handler it
+    would not), and stops on it once :class:`services.bus.process.StopWatch`
+    is installed. SIGINT stays blocked here meanwhile, so a Ctrl-C meant for
+    the launcher is delivered after, not lost (Linux never discards a blocked
+    signal, whatever its disposition); the child may inherit the block, which
+    ``StopWatch.start`` lifts.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 @dataclass
@@ -139,7 +165,7 @@ class Supervisor:
             target=service_entry, args=(m.spec.module, m.spec.argv, m.spec.nice),
             name=m.spec.name,
         )
-        with environment(env):
+        with environment(env), interrupts_ignored_by_children():
             m.process.start()
         m.exitcode, m.restart_at = None, None
         log.debug("started %s (pid %s)", m.spec.name, m.process.pid)

@@ -48,3 +48,23 @@ def test_stop_terminates_running_services_cleanly() -> None:
     started = time.monotonic()
     assert sup.stop(timeout=10) == {"detector": 0}
     assert time.monotonic() - started < 10
+
+
+def test_ctrl_c_while_a_service_still_imports_does_not_kill_it(tmp_path) -> None:
+    # A terminal's Ctrl-C reaches every process of the group, services still starting
+    # among them: they must not die of it mid-import (a traceback, no clean stop).
+    import os
+    import signal
+
+    marks = tmp_path / "marks"
+    sup = Supervisor([ServiceSpec("source", "tests.services.stack.slow_start_service", [])],
+                     env={"AAMTRACK_TEST_MARKS": str(marks)})
+    sup.start()
+    read = lambda: marks.read_text().split("\n") if marks.exists() else []  # noqa: E731
+    wait_until(lambda: "importing" in read())
+    os.kill(sup.pid("source"), signal.SIGINT)
+    wait_until(lambda: "ready" in read())
+    os.kill(sup.pid("source"), signal.SIGINT)
+    wait_until(lambda: (sup.check(), sup.exitcode("source"))[1] is not None)
+    assert sup.exitcode("source") == 0
+    assert "stopped: signal SIGINT" in read()
