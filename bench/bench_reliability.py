@@ -47,18 +47,19 @@ def interrupted_run(argv: list[str], folder: Path, k: int, rng: random.Random) -
     rrd, rec = folder / f"run{k}.rrd", folder / f"run{k}.rec"
     proc = subprocess.Popen([sys.executable, "-m", "services", "run", *argv, "--rrd", str(rrd),
                              "--record", str(rec)], env=ENV, cwd=REPO_ROOT,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
     delay = rng.uniform(1.0, 12.0)
     time.sleep(delay)
     os.killpg(proc.pid, signal.SIGINT)
     try:
-        code = proc.wait(20)
-        hung = False
+        _, err = proc.communicate(timeout=20)
+        code, hung = proc.returncode, False
     except subprocess.TimeoutExpired:
         hung = True
         os.killpg(proc.pid, signal.SIGKILL)
-        code = proc.wait(10)
+        _, err = proc.communicate(timeout=10)
+        code = proc.returncode
     check = subprocess.run([str(RERUN), "rrd", "verify", str(rrd)], capture_output=True,
                            text=True, timeout=60) if rrd.exists() else None
     verified = check is not None and check.returncode == 0
@@ -69,7 +70,8 @@ def interrupted_run(argv: list[str], folder: Path, k: int, rng: random.Random) -
         print(f"  {rrd.name} does not verify (kept as {kept}): {check.stderr.strip()[-300:]}")
     loads = rec.exists() and read_recording(rec).stopped == ""
     return {"delay": delay, "code": code, "hung": hung, "rrd": verified, "rec": loads,
-            "rrd_made": rrd.exists()}
+            "rrd_made": rrd.exists(), "rec_made": rec.exists(), "traceback": "Traceback" in err,
+            "said": all(f"no recording {p}" in err for p in (rrd, rec) if not p.exists())}
 
 
 def interrupts(runs: int, model: Path, classifier: Path, seed: int) -> bool:
@@ -85,15 +87,22 @@ def interrupts(runs: int, model: Path, classifier: Path, seed: int) -> bool:
             print(f"run {k + 1:>3}: SIGINT after {r['delay']:4.1f} s -> exit {r['code']}, "
                   f"{'HUNG, ' if r['hung'] else ''}rrd "
                   f"{'ok' if r['rrd'] else 'BAD' if r['rrd_made'] else 'MISSING'}, "
-                  f"rec {'ok' if r['rec'] else 'BAD'}", flush=True)
+                  f"rec {'ok' if r['rec'] else 'BAD' if r['rec_made'] else 'MISSING'}",
+                  flush=True)
     hangs = sum(r["hung"] for r in rows)
-    bad_rrd = sum(not r["rrd"] for r in rows)
-    bad_rec = sum(not r["rec"] for r in rows)
+    bad_rrd = sum(r["rrd_made"] and not r["rrd"] for r in rows)
+    bad_rec = sum(r["rec_made"] and not r["rec"] for r in rows)
+    missing = sum(not (r["rrd_made"] and r["rec_made"]) for r in rows)
+    unsaid = sum(not r["said"] for r in rows)
+    tracebacks = sum(r["traceback"] for r in rows)
     codes = sorted({r["code"] for r in rows})
     print(f"\n{runs} runs: {hangs} hangs, {bad_rrd} .rrd that do not verify, {bad_rec} .rec that "
-          f"do not load; exit codes {codes}")
-    ok = hangs == 0 and bad_rrd == 0 and bad_rec == 0
-    print(f"{'PASS' if ok else 'FAIL'}: 0 hangs, every .rrd verifies, every .rec loads")
+          f"do not load, {missing} stopped before a recording started ({unsaid} without saying "
+          f"so), {tracebacks} with a traceback; exit codes {codes} (-2: killed by the SIGINT "
+          "itself, which a shell reports as 130, as it does 130)")
+    ok = hangs == 0 and bad_rrd == 0 and bad_rec == 0 and tracebacks == 0
+    print(f"{'PASS' if ok else 'FAIL'}: 0 hangs, every .rrd written verifies, every .rec written "
+          "loads, no traceback")
     return ok
 
 

@@ -2,6 +2,11 @@
 
 import sys
 
-from services.cli import main
+try:
+    from services.cli import main
 
-sys.exit(main())
+    code = main()
+except KeyboardInterrupt:  # Ctrl-C before the command's own handling is in place
+    print("aamtrack: interrupted", file=sys.stderr)
+    code = 130
+sys.exit(code)

@@ -127,7 +127,7 @@ def serve(svc: Service, opts: SourceOptions) -> int:
     with video:
         svc.ready(f"{spec.describe()}: {video.width} x {video.height} at {video.fps:g} fps")
         missing = svc.wait_for_alive(opts.wait_for, opts.wait_timeout) if opts.wait_for else []
-        if missing:
+        if missing and not svc.stopping:
             svc.log.warning("going on without %s (not alive after %g s)", missing,
                             opts.wait_timeout)
         try:

@@ -290,7 +290,17 @@ def run_stack(opts: StackOptions) -> int:
     print(summary_table(summary))
     if opts.launch.summary:
         Path(opts.launch.summary).write_text(json.dumps(summary, indent=2))
+    for path in unwritten(opts):
+        print(f"aamtrack run: no recording {path}: stopped before it was started",
+              file=sys.stderr)
     return exit_code(stack.outcome, summary)
+
+
+def unwritten(opts: StackOptions) -> list[str]:
+    """The recording files the run was asked for that do not exist (stopped early)."""
+    rerun = opts.services.get("rerun")
+    asked = [opts.launch.record, rerun.rrd if rerun is not None else None]
+    return [p for p in asked if p and not Path(p).exists()]
 
 
 def exit_code(outcome: str, summary: dict[str, Any]) -> int:

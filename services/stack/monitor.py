@@ -156,7 +156,9 @@ def _status_dict(s: Status) -> dict[str, Any]:
 
 def summary_table(summary: dict[str, Any]) -> str:
     """The summary as a few lines of text."""
-    lines = [f"end of stream: {summary['total_frames']} frames ({summary['eos_reason']}); "
+    end = (f"end of stream: {summary['total_frames']} frames ({summary['eos_reason']})"
+           if summary["total_frames"] is not None else "no end of stream (stopped before it)")
+    lines = [f"{end}; "
              f"frames with a fit {summary['frames_with']['fit']}, pose "
              f"{summary['frames_with']['pose']}, expression "
              f"{summary['frames_with']['expression']}; failed fits {summary['fits_failed']} "
