@@ -138,7 +138,9 @@ def _open(path: Path) -> Any:
     try:
         return np.load(path, allow_pickle=False)
     except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        raise ModelFileError(f"{path}: not a model file ({exc})") from exc
+        why = ("it would need pickled objects, which aamtrack never loads" if "pickle" in str(exc)
+               else str(exc))
+        raise ModelFileError(f"{path}: not a model file ({why})") from exc
 
 
 def _checked_header(path: Path, data: Any) -> dict[str, Any]:

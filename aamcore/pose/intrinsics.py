@@ -10,6 +10,7 @@ of view when no calibration exists.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -271,10 +272,19 @@ def _read_opencv(path: Path) -> tuple[np.ndarray, np.ndarray, int | None, int | 
         sizes = []
         for key in ("image_width", "image_height"):
             node = fs.getNode(key)
-            sizes.append(None if node.empty() else int(node.real()))
+            if not node.empty() and not (node.isInt() or node.isReal()):
+                raise IntrinsicsError(f"{path}: {key} is not a number")
+            sizes.append(None if node.empty() else _size(node.real(), path, key))
     finally:
         fs.release()
     return np.asarray(K, np.float64), np.asarray(dist, np.float64).ravel(), sizes[0], sizes[1]
+
+
+def _size(value: float, path: Path, key: str) -> int:
+    """An image size in pixels read from a calibration file: a positive whole number."""
+    if not math.isfinite(value) or value < 1 or value > 1e6 or value != int(value):
+        raise IntrinsicsError(f"{path}: {key} is {value!r}, not a positive whole number of pixels")
+    return int(value)
 
 
 def _json_matrix(value: Any, path: Path, key: str) -> np.ndarray:
@@ -304,5 +314,5 @@ def _read_json(path: Path) -> tuple[np.ndarray, np.ndarray, int | None, int | No
         value = data.get(key)
         if value is not None and not isinstance(value, int | float):
             raise IntrinsicsError(f"{path}: {key} is not a number")
-        sizes.append(None if value is None else int(value))
+        sizes.append(None if value is None else _size(value, path, key))
     return K, dist.ravel(), sizes[0], sizes[1]

@@ -127,3 +127,27 @@ def test_scaled_to_keeps_the_field_of_view() -> None:
     half = cam.scaled_to(640, 360)
     assert half.horizontal_fov_deg == pytest.approx(70.0)
     assert half.K[0, 2] == pytest.approx(319.5)
+
+
+@pytest.mark.parametrize("width", [".nan", "-640", "640.5"])
+def test_image_size_must_be_a_positive_whole_number(tmp_path: Path, width: str) -> None:
+    path = tmp_path / "cam.yaml"
+    path.write_text(f"%YAML:1.0\n---\nimage_width: {width}\nimage_height: 480\n"
+                    "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                    "   data: [ 500., 0., 320., 0., 500., 240., 0., 0., 1. ]\n")
+    with pytest.raises(IntrinsicsError, match="image_width is .*not a positive whole number"):
+        CameraIntrinsics.from_file(path)
+    (tmp_path / "cam.json").write_text(
+        f'{{"image_width": {"NaN" if width == ".nan" else width}, "image_height": 480, '
+        '"camera_matrix": [[500, 0, 320], [0, 500, 240], [0, 0, 1]]}')
+    with pytest.raises(IntrinsicsError, match="image_width is .*not a positive whole number"):
+        CameraIntrinsics.from_file(tmp_path / "cam.json")
+
+
+def test_image_size_that_is_text_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "cam.yaml"
+    path.write_text("%YAML:1.0\n---\nimage_width: NaN\nimage_height: 480\n"
+                    "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                    "   data: [ 500., 0., 320., 0., 500., 240., 0., 0., 1. ]\n")
+    with pytest.raises(IntrinsicsError, match="image_width is not a number"):
+        CameraIntrinsics.from_file(path)
