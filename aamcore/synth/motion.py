@@ -77,16 +77,13 @@ class Sequence:
     occluded: np.ndarray
 
     def write(self, folder: str | Path, fps: float = 30.0) -> Path:
-        """Write ``video.mp4`` and ``truth.npz`` (landmarks, occluded) into ``folder``."""
-        folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        path = folder / "video.mp4"
-        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, SIZE)
-        for frame in self.frames:
-            writer.write(frame)
-        writer.release()
-        np.savez(folder / "truth.npz", landmarks=self.landmarks, occluded=self.occluded)
-        return path
+        """Write ``video.avi`` (lossless) and ``truth.npz`` into ``folder``; the video's path.
+
+        See :func:`aamcore.synth.motion_files.write_sequence`.
+        """
+        from aamcore.synth.motion_files import write_sequence
+
+        return write_sequence(self, folder, fps).video
 
 
 def _smooth_noise(rng: np.random.Generator, n: int, cycles: float) -> np.ndarray:
