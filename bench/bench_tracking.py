@@ -1,0 +1,541 @@
+"""Tracking bench: the stack's tracker on a real video and on generated videos with exact landmarks.
+
+Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_tracking.py [--algorithm NAME]
+[--model FILE] [--per-set 4] [--frames 150] [--via-stack [N]] [--regenerate]``
+
+The tracker runs through the library as the stack runs it
+(:class:`aamcore.tracker.FaceTracker`: Haar detection, the fitter of
+``--algorithm``, re-detection on the same frame when a fit fails; no
+smoothing), on one core, frame by frame, on:
+
+1. ``videos/single_face.mp4`` (a person talking to a webcam; no ground truth:
+   good fits, failed fits, frames without a face, re-detections, time);
+2. sequences generated (:mod:`aamcore.synth.motion`) from **held-out** photos
+   of LFPW, HELEN and AFW (the split of :mod:`aamcore.io.splits`, less any
+   photo the model was trained on, told by content): smooth random motion
+   (translation, in-plane rotation to +-30 deg, scale 0.7-1.4), brightness
+   changes, motion blur; every second sequence of a set with a skin-coloured
+   hand crossing the face (frames 40 % to 60 % of the sequence). Fixed seeds:
+   the same sequences every run. They are written once as lossless videos
+   with their ground truth (:mod:`aamcore.synth.motion_files`) under
+   ``<cache>/sequences``, and read back from the files.
+
+Per sequence: frames with a good fit (the fit passed the failure test),
+overall and outside the occluder; failed fits; frames without a face;
+re-detections (detector runs after the first frame); NME (mean point error /
+outer-eye-corner distance of the truth, iBUG points 36 and 45) of the good
+fits outside the occluder, mean and p95, and the share of them above 0.08;
+frames to re-acquire the face after the occluder has left (0: the first frame
+without it already has a good fit with NME < 0.08); time per frame, median and
+p95. A summary row per set and overall pools the frames (re-acquisition: the
+worst sequence).
+
+Targets (overall): >= 98 % of the frames outside the occluder with a good fit;
+mean NME <= 0.035 on them; re-acquisition within 5 frames on every sequence
+with an occluder.
+
+``--via-stack N`` also runs ``aamtrack run --video FILE --record FILE --pace
+fast --no-ar --no-smooth`` with the same model and algorithm on the first N
+generated videos, scores the recorded fits the same way and says on how many
+frames the stack and the library agree.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import inspect
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+from threadpoolctl import threadpool_limits  # noqa: E402
+
+from aamcore import defaults  # noqa: E402
+from aamcore.config import REPO_ROOT, cache_dir, data_root, resolve_dataset  # noqa: E402
+from aamcore.evaluation.fits import held_out  # noqa: E402
+from aamcore.evaluation.metrics import nme  # noqa: E402
+from aamcore.fitting.algorithm import ALGORITHMS  # noqa: E402
+from aamcore.fitting.model import FittingModel  # noqa: E402
+from aamcore.io import FaceSample, load_annotated_folder  # noqa: E402
+from aamcore.io.landmarks import LandmarkScheme  # noqa: E402
+from aamcore.io.splits import set_name_of, split  # noqa: E402
+from aamcore.io.video import video_frames  # noqa: E402
+from aamcore.synth import motion, motion_files  # noqa: E402
+from aamcore.synth.motion import MotionSpec, generate  # noqa: E402
+from aamcore.synth.motion_files import (  # noqa: E402
+    GroundTruth,
+    read_ground_truth,
+    video_path,
+    write_sequence,
+)
+from aamcore.tracker import FaceResult, FaceTracker  # noqa: E402
+
+SETS = {"lfpw": "lfpw", "helen": "helen/trainset", "afw": "afw"}
+"""Split set -> dataset folder."""
+SEEDS = {"lfpw": 100, "helen": 200, "afw": 300}
+"""First motion seed of each set's sequences."""
+OCCLUDER = (0.4, 0.6)
+"""The occluder's crossing, as fractions of the sequence."""
+REACQUIRED_NME = 0.08
+"""A good fit re-acquires the face when its NME is below this."""
+TARGET_GOOD, TARGET_NME, TARGET_REACQUIRE = 0.98, 0.035, 5
+
+
+@dataclass(frozen=True)
+class Clip:
+    """A video to track.
+
+    Attributes
+    ----------
+    set_name : str
+        ``lfpw``, ``helen``, ``afw``, or ``video`` for the real video.
+    name : str
+    video : Path
+    truth : GroundTruth or None
+    """
+
+    set_name: str
+    name: str
+    video: Path
+    truth: GroundTruth | None
+
+
+@dataclass(frozen=True)
+class Track:
+    """What the tracker did on every frame of a clip.
+
+    Attributes
+    ----------
+    success : (F,) bool array
+        A face was found and its fit passed the failure test.
+    found : (F,) bool array
+        A face was found (a fit was returned, good or failed).
+    landmarks : list of (N, 2) arrays
+        ``(0, 2)`` without a face.
+    seconds : (F,) float array
+        Time of each frame; NaN when not measured (the stack).
+    detections : int
+        Detector runs.
+    """
+
+    success: np.ndarray
+    found: np.ndarray
+    landmarks: list[np.ndarray]
+    seconds: np.ndarray
+    detections: int
+
+
+@dataclass(frozen=True)
+class Score:
+    """A clip's (or a pool of clips') numbers.
+
+    Attributes
+    ----------
+    frames, good, outside, good_outside, failed, no_face, redetections : int
+        Frame counts (``outside``: frames without the occluder on the face).
+    errors : (G,) float array
+        NME of the good fits outside the occluder (empty without a truth).
+    reacquire : list of int or None
+        Frames to re-acquire after each occluder (None: never).
+    seconds : (F,) float array
+    """
+
+    frames: int
+    good: int
+    outside: int
+    good_outside: int
+    failed: int
+    no_face: int
+    redetections: int
+    errors: np.ndarray
+    reacquire: list[int | None]
+    seconds: np.ndarray
+
+
+def generator_version() -> str:
+    """A digest of the generator's code: cached sequences are remade when it changes."""
+    text = inspect.getsource(motion) + inspect.getsource(motion_files)
+    return hashlib.sha1(text.encode()).hexdigest()[:8]
+
+
+def held_out_photos(model: FittingModel, set_name: str, count: int) -> list[FaceSample]:
+    """``count`` held-out photos of a set, spread over it, that ``model`` was not trained on."""
+    data = load_annotated_folder(resolve_dataset(SETS[set_name]))
+    _, test = split(data.samples, set_name)
+    fresh = held_out(model.aam, test)
+    if len(fresh) < len(test):
+        print(f"note: {len(test) - len(fresh)} of the {len(test)} held-out {set_name} photos "
+              "are in the model's training set: left out")
+    if len(fresh) <= count:
+        return fresh
+    return [fresh[i * len(fresh) // count] for i in range(count)]
+
+
+def motion_spec(set_name: str, index: int, frames: int) -> MotionSpec:
+    """The motion of a set's ``index``-th sequence: an occluder on every second one."""
+    occluder = None
+    if index % 2 == 1:
+        occluder = (int(OCCLUDER[0] * frames), int(OCCLUDER[1] * frames))
+    return MotionSpec(frames=frames, occluder=occluder, seed=SEEDS[set_name] + index)
+
+
+def sequence_folder(set_name: str, sample: FaceSample, spec: MotionSpec) -> Path:
+    """Where the sequence of ``sample`` moved by ``spec`` is cached."""
+    key = f"{sample.image_id()} {spec} {generator_version()}"
+    digest = hashlib.sha1(key.encode()).hexdigest()[:10]
+    return cache_dir() / "sequences" / f"{set_name}-{Path(sample.image_path).stem}-{digest}"
+
+
+def ensure_sequence(set_name: str, sample: FaceSample, spec: MotionSpec,
+                    regenerate: bool) -> tuple[Path, GroundTruth]:
+    """The cached sequence's folder and truth, generated and written when missing."""
+    folder = sequence_folder(set_name, sample, spec)
+    if not regenerate:
+        try:
+            truth = read_ground_truth(folder)
+            if truth.spec == spec and video_path(folder).exists():
+                return folder, truth
+        except (FileNotFoundError, KeyError, ValueError):
+            pass
+    sequence = generate(sample.load_image(), sample.points, spec)
+    write_sequence(sequence, folder, spec=spec)
+    return folder, read_ground_truth(folder)
+
+
+def generated_clips(model: FittingModel, per_set: int, frames: int,
+                    regenerate: bool) -> list[Clip]:
+    """The generated sequences of every set, ``per_set`` each."""
+    clips = []
+    for set_name in SETS:
+        for k, sample in enumerate(held_out_photos(model, set_name, per_set)):
+            spec = motion_spec(set_name, k, frames)
+            folder, truth = ensure_sequence(set_name, sample, spec, regenerate)
+            label = f"{set_name} {Path(sample.image_path).stem}{' +occl' if spec.occluder else ''}"
+            clips.append(Clip(set_name, label, video_path(folder), truth))
+    return clips
+
+
+def track(tracker: FaceTracker, frames: list[np.ndarray], fps: float) -> Track:
+    """Track every frame from a fresh start, timing each."""
+    tracker.reset()
+    tracker.frames = 0
+    before = tracker.tracker.detections
+    results: list[FaceResult] = []
+    seconds = []
+    for k, frame in enumerate(frames):
+        t0 = time.perf_counter()
+        results.append(tracker.process(frame, k / fps))
+        seconds.append(time.perf_counter() - t0)
+    return track_of(results, np.array(seconds), tracker.tracker.detections - before)
+
+
+def track_of(results: list[FaceResult], seconds: np.ndarray, detections: int) -> Track:
+    """A :class:`Track` of per-frame results."""
+    return Track(np.array([r.success for r in results], bool),
+                 np.array([len(r.landmarks) > 0 for r in results], bool),
+                 [r.landmarks for r in results], seconds, detections)
+
+
+def frame_errors(run: Track, truth: GroundTruth, scheme: LandmarkScheme) -> np.ndarray:
+    """NME of every frame with a good fit (F,); NaN elsewhere."""
+    return np.array([nme(points, gt, scheme) if ok else np.nan
+                     for ok, points, gt in zip(run.success, run.landmarks, truth.landmarks,
+                                               strict=True)])
+
+
+def reacquisition(run: Track, truth: GroundTruth, errors: np.ndarray) -> list[int | None]:
+    """Frames from the occluder leaving the face to a good fit with NME < 0.08 ([] without an
+    occluder; None: never)."""
+    if not truth.occluded.any():
+        return []
+    after = int(np.flatnonzero(truth.occluded)[-1]) + 1
+    for k in range(after, len(errors)):
+        if run.success[k] and errors[k] < REACQUIRED_NME:
+            return [k - after]
+    return [None]
+
+
+def score(run: Track, truth: GroundTruth | None, scheme: LandmarkScheme | None) -> Score:
+    """The numbers of one clip."""
+    frames = len(run.success)
+    failed = int(np.sum(run.found & ~run.success))
+    no_face = int(np.sum(~run.found))
+    redetections = max(run.detections - 1, 0) if run.detections >= 0 else -1
+    if truth is None or scheme is None:
+        return Score(frames, int(run.success.sum()), frames, int(run.success.sum()), failed,
+                     no_face, redetections, np.zeros(0), [], run.seconds)
+    if len(truth.landmarks) != frames:
+        raise ValueError(f"{frames} frames tracked, {len(truth.landmarks)} in the ground truth")
+    errors = frame_errors(run, truth, scheme)
+    outside = ~truth.occluded
+    good_outside = run.success & outside
+    return Score(frames, int(run.success.sum()), int(outside.sum()), int(good_outside.sum()),
+                 failed, no_face, redetections, errors[good_outside],
+                 reacquisition(run, truth, errors), run.seconds)
+
+
+def pooled(scores: list[Score]) -> Score:
+    """One score of several clips: frames pooled, every re-acquisition kept."""
+    def total(name: str) -> int:
+        return sum(getattr(s, name) for s in scores)
+
+    return Score(total("frames"), total("good"), total("outside"), total("good_outside"),
+                 total("failed"), total("no_face"), total("redetections"),
+                 np.concatenate([s.errors for s in scores]),
+                 [r for s in scores for r in s.reacquire],
+                 np.concatenate([s.seconds for s in scores]))
+
+
+HEADER = (f"{'sequence':<32}{'frames':>7}{'good':>7}{'good out':>9}{'failed':>7}{'no face':>8}"
+          f"{'redet':>6}{'NME':>8}{'p95':>8}{'>0.08':>7}{'reacq':>7}{'ms med':>8}{'ms p95':>8}")
+
+
+def worst_reacquire(values: list[int | None]) -> str:
+    if not values:
+        return "-"
+    return "never" if None in values else str(max(v for v in values if v is not None))
+
+
+def row(name: str, s: Score) -> str:
+    """One table line."""
+    def pct(a: int, b: int) -> str:
+        return f"{a / b:.1%}" if b else "-"
+
+    def num(x: float, fmt: str) -> str:
+        return format(x, fmt) if np.isfinite(x) else "-"
+
+    e = s.errors
+    mean_e, p95_e = (float(e.mean()), float(np.percentile(e, 95))) if len(e) else (np.nan,) * 2
+    wrong = pct(int(np.sum(e > REACQUIRED_NME)), len(e)) if len(e) else "-"
+    ms = 1000 * s.seconds[np.isfinite(s.seconds)]
+    med, p95 = (float(np.median(ms)), float(np.percentile(ms, 95))) if len(ms) else (np.nan,) * 2
+    redet = str(s.redetections) if s.redetections >= 0 else "-"
+    return (f"{name[:31]:<32}{s.frames:>7d}{pct(s.good, s.frames):>7}"
+            f"{pct(s.good_outside, s.outside):>9}{s.failed:>7d}{s.no_face:>8d}"
+            f"{redet:>6}{num(mean_e, '.4f'):>8}{num(p95_e, '.4f'):>8}{wrong:>7}"
+            f"{worst_reacquire(s.reacquire):>7}{num(med, '.1f'):>8}{num(p95, '.1f'):>8}")
+
+
+def verdicts(s: Score) -> list[tuple[bool, str]]:
+    """The targets, each PASS or FAIL with its line, on the pooled generated sequences."""
+    good = s.good_outside / s.outside if s.outside else 0.0
+    mean_e = float(s.errors.mean()) if len(s.errors) else np.inf
+    within = [r for r in s.reacquire if r is not None and r <= TARGET_REACQUIRE]
+    return [
+        (good >= TARGET_GOOD, f"{good:.1%} of the frames outside the occluder with a good fit "
+                              f"(target >= {TARGET_GOOD:.0%})"),
+        (mean_e <= TARGET_NME, f"mean NME {mean_e:.4f} on them (target <= {TARGET_NME})"),
+        (bool(s.reacquire) and len(within) == len(s.reacquire),
+         f"re-acquired within {TARGET_REACQUIRE} frames of the occluder leaving on "
+         f"{len(within)} of {len(s.reacquire)} sequences (worst: "
+         f"{worst_reacquire(s.reacquire)})"),
+    ]
+
+
+def read_clip(path: Path) -> tuple[list[np.ndarray], float]:
+    """Every frame of a video (BGR) and its frame rate (30 when it names none)."""
+    capture = cv2.VideoCapture(str(path))
+    fps = capture.get(cv2.CAP_PROP_FPS) or 30.0
+    capture.release()
+    return video_frames(path), fps if 1.0 <= fps <= 1000.0 else 30.0
+
+
+def stack_track(clip: Clip, model_path: Path, algorithm: str, folder: Path
+                ) -> tuple[Track, np.ndarray, float]:
+    """Run ``aamtrack run`` on a clip and read its recorded fits back.
+
+    Returns
+    -------
+    track : Track
+        Frames without a recorded fit count as frames without a face;
+        ``detections`` is -1 (the recording does not say).
+    latency_ms : (K,) array
+        Capture to fit publication of each recorded fit.
+    wall : float
+        Seconds the whole run took, start and stop of the services included.
+    """
+    from proto import Fit
+    from services.stack.export import results_of
+    from services.stack.recorder import load_messages
+
+    rec = folder / f"{clip.video.parent.name}.rec"
+    command = [sys.executable, "-m", "services", "run", "--video", str(clip.video),
+               "--record", str(rec), "--pace", "fast", "--no-ar", "--no-smooth",
+               "--model", str(model_path), "--algorithm", algorithm]
+    env = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO_ROOT)}
+    t0 = time.perf_counter()
+    done = subprocess.run(command, cwd=REPO_ROOT, env=env, capture_output=True, text=True,
+                          timeout=600, check=False)
+    wall = time.perf_counter() - t0
+    if done.returncode != 0:
+        raise RuntimeError(f"{' '.join(command)} exited {done.returncode}:\n{done.stderr[-2000:]}")
+    messages = load_messages(rec)
+    fits = [m for m in messages if isinstance(m, Fit)]
+    latency = np.array([(f.header.publish_time_ns - f.header.capture_time_ns) / 1e6
+                        for f in fits])
+    by_frame = {r.frame_index: r for r in results_of(messages).results}
+    frames = len(clip.truth.landmarks) if clip.truth is not None else max(by_frame, default=-1) + 1
+    empty = np.zeros((0, 2))
+    results = [by_frame.get(k) for k in range(frames)]
+    track = Track(np.array([r is not None and r.success for r in results], bool),
+                  np.array([r is not None and len(r.landmarks) > 0 for r in results], bool),
+                  [empty if r is None else r.landmarks for r in results],
+                  np.full(frames, np.nan), -1)
+    return track, latency, wall
+
+
+def agreement(library: Track, stack: Track) -> str:
+    """On how many frames the stack and the library agree, and by how much their points differ."""
+    same = int(np.sum(library.success == stack.success))
+    both = [k for k in range(len(library.success))
+            if library.found[k] and stack.found[k]
+            and library.landmarks[k].shape == stack.landmarks[k].shape]
+    gap = max((float(np.abs(library.landmarks[k] - stack.landmarks[k]).max()) for k in both),
+              default=float("nan"))
+    return (f"same good/failed verdict on {same} of {len(library.success)} frames; "
+            f"largest landmark difference {gap:.4f} px over {len(both)} frames with a fit in both")
+
+
+def parse_args() -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--algorithm", choices=list(ALGORITHMS), default=defaults.ALGORITHM,
+                        help=f"fitting algorithm (default {defaults.ALGORITHM})")
+    parser.add_argument("--model", type=Path,
+                        help="fitting model file (default: the stack's default model)")
+    parser.add_argument("--split-model", action="store_true",
+                        help="instead, the default model's recipe trained on the LFPW split's "
+                             "training part only (trained once, cached)")
+    parser.add_argument("--per-set", type=int, default=4, help="sequences per set")
+    parser.add_argument("--frames", type=int, default=150, help="frames per sequence")
+    parser.add_argument("--via-stack", type=int, nargs="?", const=2, default=0, metavar="N",
+                        help="also run the first N generated videos through aamtrack run "
+                             "(default N: 2)")
+    parser.add_argument("--regenerate", action="store_true",
+                        help="generate and write the sequences again")
+    return parser.parse_args()
+
+
+def split_model_path() -> Path:
+    """The default model's recipe trained on the training part of the LFPW split only.
+
+    The default model learns from every LFPW photo, the held-out ones too; this one leaves
+    them out, so that LFPW's sequences can be measured. Trained once (about a minute) and
+    cached.
+    """
+    from aamcore.fitting.training import prepare
+    from aamcore.model.cache import cache_key, cached_file
+    from aamcore.model.training import TrainConfig, train_aam
+
+    config = TrainConfig(colour=False, shape_variance=0.98)  # as default_model_path
+    folder = resolve_dataset(defaults.MODEL_DATASET)
+    images = defaults.MODEL_UPDATE_IMAGES
+    key = cache_key(str(folder), config, {"select": "split train",
+                                          "prepare": f"{prepare.RECIPE}, {images} images"})
+
+    def build(path: Path) -> Path:
+        data = load_annotated_folder(folder)
+        train, _ = split(data.samples, set_name_of(folder))
+        print(f"training the split model on {len(train)} images of {folder}, once", file=sys.stderr)
+        aam = train_aam(train, data.scheme, config, source=f"{folder} [split train]")
+        return prepare.train_fitting_model(aam, train, max_images=images).save(path)
+
+    return cached_file(cache_dir() / f"{folder.name}-split-{key}.npz", build, FittingModel.load)
+
+
+def load_model(args: argparse.Namespace) -> tuple[Path, FittingModel]:
+    """The model of ``--model``, ``--split-model`` or the default model."""
+    if args.model is not None:
+        path = args.model
+    elif args.split_model:
+        path = split_model_path()
+    else:
+        from aamcore.fitting.training.prepare import default_model_path
+
+        path = default_model_path()
+    return path, FittingModel.load(path)
+
+
+def library_runs(tracker: FaceTracker, clips: list[Clip], scheme: LandmarkScheme
+                 ) -> tuple[dict[str, Track], dict[str, Score]]:
+    """Track and score every clip through the library."""
+    tracks, scores = {}, {}
+    for clip in clips:
+        frames, fps = read_clip(clip.video)
+        tracks[clip.name] = track(tracker, frames, fps)
+        scores[clip.name] = score(tracks[clip.name], clip.truth, scheme)
+    return tracks, scores
+
+
+def print_table(clips: list[Clip], scores: dict[str, Score]) -> Score:
+    """The table of every clip, a summary per set and overall; the overall generated score."""
+    print(HEADER)
+    groups: dict[str, list[Score]] = {}
+    for clip in clips:
+        groups.setdefault(clip.set_name, []).append(scores[clip.name])
+    for set_name, group in groups.items():
+        for clip in (c for c in clips if c.set_name == set_name):
+            print(row(clip.name, scores[clip.name]))
+        if set_name != "video":
+            print(row(f"= {set_name} ({len(group)})", pooled(group)))
+        print()
+    generated = [s for name, group in groups.items() if name != "video" for s in group]
+    overall = pooled(generated)
+    print(row(f"= overall ({len(generated)})", overall))
+    return overall
+
+
+def via_stack(clips: list[Clip], tracks: dict[str, Track], model_path: Path, algorithm: str,
+              scheme: LandmarkScheme) -> None:
+    """Run clips through ``aamtrack run`` and compare with the library's runs."""
+    print(f"\nThe same through the stack (aamtrack run --pace fast --no-ar --no-smooth, "
+          f"--algorithm {algorithm}):")
+    print(HEADER)
+    with tempfile.TemporaryDirectory(prefix="bench-tracking-") as folder:
+        for clip in clips:
+            run, latency, wall = stack_track(clip, model_path, algorithm, Path(folder))
+            print(row(f"stack {clip.name}", score(run, clip.truth, scheme)))
+            print(f"  {agreement(tracks[clip.name], run)}")
+            print(f"  fit latency (capture to fit) median {np.median(latency):.1f} ms, "
+                  f"p95 {np.percentile(latency, 95):.1f} ms; run {wall:.1f} s with start and stop")
+
+
+def main() -> int:
+    args = parse_args()
+    cv2.setNumThreads(1)
+    start = time.perf_counter()
+    with threadpool_limits(1):
+        model_path, model = load_model(args)
+        scheme = model.aam.scheme
+        if scheme.n_points != 68:
+            raise SystemExit(f"{model_path}: {scheme.name} points; the sequences have iBUG-68")
+        tracker = FaceTracker(model, algorithm=args.algorithm)
+        print(f"{tracker.tracker.fitter.name} ({args.algorithm}), model {model_path.name} "
+              f"({model.aam.summary.get('source', '?')}); OMP_NUM_THREADS="
+              f"{os.environ.get('OMP_NUM_THREADS')}, one OpenCV thread")
+        generated = generated_clips(model, args.per_set, args.frames, args.regenerate)
+        clips = [Clip("video", "single_face.mp4",
+                      data_root() / "videos" / "single_face.mp4", None), *generated]
+        print()
+        tracks, scores = library_runs(tracker, clips, scheme)
+        overall = print_table(clips, scores)
+        print()
+        results = verdicts(overall)
+        for ok, line in results:
+            print(f"{'PASS' if ok else 'FAIL'}: {line}")
+        if args.via_stack:
+            via_stack(generated[: args.via_stack], tracks, model_path, args.algorithm, scheme)
+    print(f"\nbench time {time.perf_counter() - start:.0f} s")
+    return 0 if all(ok for ok, _ in results) else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
