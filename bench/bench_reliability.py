@@ -68,6 +68,9 @@ def interrupted_run(argv: list[str], folder: Path, k: int, rng: random.Random) -
         KEEP.mkdir(parents=True, exist_ok=True)
         kept.write_bytes(rrd.read_bytes())
         print(f"  {rrd.name} does not verify (kept as {kept}): {check.stderr.strip()[-300:]}")
+    if "Traceback" in err:
+        tail = "\n    ".join(err[err.index("Traceback"):].splitlines()[:40])
+        print(f"  run {k + 1} printed a traceback:\n    {tail}")
     loads = rec.exists() and read_recording(rec).stopped == ""
     return {"delay": delay, "code": code, "hung": hung, "rrd": verified, "rec": loads,
             "rrd_made": rrd.exists(), "rec_made": rec.exists(), "traceback": "Traceback" in err,

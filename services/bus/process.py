@@ -95,9 +95,6 @@ class StopWatch:
         if self._handle:
             for sig in STOP_SIGNALS:
                 self._old[sig] = signal.signal(sig, self._record)
-            # The launcher starts services with SIGINT ignored and, at times, blocked
-            # (services.stack.supervisor): a Ctrl-C that came meanwhile arrives now.
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
         self._thread = threading.Thread(target=self._watch, name="stop-watch", daemon=True)
         self._thread.start()
 

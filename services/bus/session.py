@@ -138,7 +138,8 @@ class Service(Receiving, Presence):
             self._status_thread.join(timeout=2 * self._status_period + 1)
         if self._state != "failed":
             self._state = "stopped"
-        session, self.session = self.session, None
+        with self._lock:
+            session, self.session = self.session, None
         try:
             if self._announce:
                 status = self.status()
@@ -208,16 +209,26 @@ class Service(Receiving, Presence):
             self.stats.frames_out += 1
 
     def put(self, key: str, payload: bytes, qos: QoS | None = None) -> None:
-        """Put raw bytes on ``key`` through a publisher declared once per key (with ``qos``)."""
+        """Put raw bytes on ``key`` through a publisher declared once per key (with ``qos``).
+
+        Once the service is closed (a callback thread may still answer while it
+        stops) nothing is sent.
+        """
         publisher = self._publishers.get(key)
         if publisher is None:
             with self._lock:
+                if self.session is None:
+                    return
                 publisher = self._publishers.get(key)
                 if publisher is None:
                     settings = (qos or QoS()).publisher_kwargs()
                     publisher = self.session.declare_publisher(key, **settings)
                     self._publishers[key] = publisher
-        publisher.put(payload)
+        try:
+            publisher.put(payload)
+        except Exception:  # zenoh.ZError of a publisher undeclared by close() meanwhile
+            if self.session is not None:
+                raise
 
     # -- status -------------------------------------------------------------------------------
 

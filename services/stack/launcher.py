@@ -12,7 +12,7 @@ The launcher
 3. gives the run a run id: every service accepts only messages of it, so
    processes of another run on the same bus change nothing (they are
    counted and named in the summary);
-4. starts each service as its own process (spawn start method, see
+4. starts each service as its own process (a fresh interpreter in a process group of its own, see
    :mod:`services.stack.supervisor`; each dies with the launcher), the
    source last, once the others hold their liveliness tokens;
 5. watches the results and the services' status, restarting a service that

@@ -56,6 +56,8 @@ class RecordWriter:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.count = 0
+        self.late = 0
+        """Messages that came after :meth:`close`, left out."""
         self._lock = threading.Lock()
         self._file: BinaryIO | None = open(self.path, "wb")  # noqa: SIM115 (closed in close())
         self._file.write(MAGIC)
@@ -63,10 +65,12 @@ class RecordWriter:
         self._flushed = time.monotonic()
 
     def write(self, payload: bytes) -> None:
-        """Append one encoded message (flushed within :data:`FLUSH_PERIOD`)."""
+        """Append one encoded message (flushed within :data:`FLUSH_PERIOD`); after
+        :meth:`close` (messages still arriving while the run stops) it is left out."""
         with self._lock:
             if self._file is None:
-                raise ValueError(f"recording {self.path} is closed")
+                self.late += 1
+                return
             self._file.write(_LENGTH.pack(len(payload)) + payload)
             self.count += 1
             if time.monotonic() - self._flushed >= FLUSH_PERIOD:

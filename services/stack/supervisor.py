@@ -1,10 +1,15 @@
-"""Service processes: started with the spawn method, restarted when they die, stopped together.
+"""Service processes: started afresh, restarted when they die, stopped together.
 
-Every service runs in its own process, started with
-``multiprocessing.get_context("spawn")``: a forked child of a process holding
-a Zenoh session or a GL context hangs or publishes nothing. A child runs
-:func:`service_entry`, which imports the service module and calls its
-``main(argv)``.
+Every service runs in a new Python process (``python -m
+services.stack.child MODULE NICE ARGV...``: fork and exec at once, never a
+bare fork, since a forked copy of a process holding a Zenoh session or a GL
+context hangs or publishes nothing). The child imports the service module and
+calls its ``main(argv)``.
+
+Each service gets a process group of its own, so that a terminal's Ctrl-C
+reaches the launcher alone: a service still importing its modules cannot die
+of it with a traceback, and the launcher stops every service itself, with
+SIGTERM, in order.
 
 :class:`Supervisor` restarts a service that dies (non-zero exit or a signal)
 after a back-off that doubles from ``backoff`` up to ``max_backoff`` seconds,
@@ -17,77 +22,34 @@ kernel for SIGTERM when its parent dies (:mod:`services.bus.process`).
 
 from __future__ import annotations
 
-import contextlib
-import importlib
 import logging
-import multiprocessing
 import os
 import signal
+import subprocess
 import sys
-import threading
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from pathlib import Path
 
-from services.bus.process import ENV_PARENT, ENV_RESTARTS, die_with_parent
+import services
+from services.bus.process import ENV_PARENT, ENV_RESTARTS
 
 log = logging.getLogger("aamtrack.launcher")
+ROOT = str(Path(services.__file__).resolve().parent.parent)
+"""The folder holding the ``services`` package, put first on the children's path."""
 
 
-def service_entry(module: str, argv: Sequence[str], nice: int = 0) -> None:
-    """Body of a service process: die with the launcher, lower its priority by ``nice``,
-    run ``module.main(argv)`` and exit with its code."""
-    die_with_parent()
-    if nice:
-        os.nice(nice)
-    code = importlib.import_module(module).main(list(argv))
-    sys.exit(int(code or 0))
+def child_command(module: str, argv: Sequence[str], nice: int = 0) -> list[str]:
+    """The command line of a service process running ``module.main(argv)``."""
+    return [sys.executable, "-m", "services.stack.child", module, str(nice), *argv]
 
 
-@contextlib.contextmanager
-def environment(env: Mapping[str, str]) -> Iterator[None]:
-    """Set ``env`` in ``os.environ`` for the duration, then restore it.
-
-    A spawned child inherits the environment at ``start()`` and imports numpy
-    while unpickling its target, before any code of ours runs in it: variables
-    such as ``OMP_NUM_THREADS`` must already be in the environment it inherits.
-    """
-    saved = {k: os.environ.get(k) for k in env}
-    os.environ.update(env)
-    try:
-        yield
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
-
-@contextlib.contextmanager
-def interrupts_ignored_by_children() -> Iterator[None]:
-    """Start children that ignore SIGINT until they install their own stop handlers.
-
-    A terminal's Ctrl-C reaches the whole process group; a service still
-    importing its modules would die of it with a ``KeyboardInterrupt``
-    traceback. A child inherits an ignored SIGINT across exec (a handler it
-    would not), and stops on it once :class:`services.bus.process.StopWatch`
-    is installed. SIGINT stays blocked here meanwhile, so a Ctrl-C meant for
-    the launcher is delivered after, not lost (Linux never discards a blocked
-    signal, whatever its disposition); the child may inherit the block, which
-    ``StopWatch.start`` lifts.
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+def child_environment(extra: Mapping[str, str]) -> dict[str, str]:
+    """This process's environment with ``extra`` and the path to this checkout's packages."""
+    env = {**os.environ, **extra}
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (ROOT, env.get("PYTHONPATH", "")) if p)
+    return env
 
 
 @dataclass
@@ -119,7 +81,7 @@ class ServiceSpec:
 @dataclass
 class _Managed:
     spec: ServiceSpec
-    process: Any = None
+    process: subprocess.Popen | None = None
     restarts: int = 0
     restart_at: float | None = None
     exitcode: int | None = None
@@ -146,7 +108,6 @@ class Supervisor:
         self, specs: Sequence[ServiceSpec], env: Mapping[str, str] | None = None,
         max_restarts: int = 5, backoff: float = 0.5, max_backoff: float = 8.0,
     ) -> None:
-        self._ctx = multiprocessing.get_context("spawn")
         self._env = dict(env or {})
         self._managed = {s.name: _Managed(s) for s in specs}
         self.max_restarts = max_restarts
@@ -161,19 +122,17 @@ class Supervisor:
 
     def _start(self, m: _Managed) -> None:
         env = {**self._env, ENV_RESTARTS: str(m.restarts), ENV_PARENT: str(os.getpid())}
-        m.process = self._ctx.Process(
-            target=service_entry, args=(m.spec.module, m.spec.argv, m.spec.nice),
-            name=m.spec.name,
+        m.process = subprocess.Popen(
+            child_command(m.spec.module, m.spec.argv, m.spec.nice), env=child_environment(env),
+            stdin=subprocess.DEVNULL, process_group=0,
         )
-        with environment(env), interrupts_ignored_by_children():
-            m.process.start()
         m.exitcode, m.restart_at = None, None
         log.debug("started %s (pid %s)", m.spec.name, m.process.pid)
 
     def pid(self, name: str) -> int | None:
         """Process id of a running service."""
         p = self._managed[name].process
-        return p.pid if p is not None and p.is_alive() else None
+        return p.pid if p is not None and p.poll() is None else None
 
     def alive(self, name: str) -> bool:
         return self.pid(name) is not None
@@ -197,9 +156,8 @@ class Supervisor:
             p = m.process
             if p is None:
                 continue
-            if m.exitcode is None and not p.is_alive():
-                p.join(0)
-                m.exitcode = p.exitcode
+            if m.exitcode is None and p.poll() is not None:
+                m.exitcode = p.returncode
                 self._on_exit(m, now)
             elif m.restart_at is not None and now >= m.restart_at:
                 m.restarts += 1
@@ -231,18 +189,18 @@ class Supervisor:
 
         Returns each service's exit code (``None`` if never started).
         """
-        running = [m for m in self._managed.values()
-                   if m.process is not None and m.process.pid is not None]
-        for m in reversed(running):
+        running = [(m, m.process) for m in self._managed.values() if m.process is not None]
+        for m, p in reversed(running):
             m.restart_at = None
-            if m.process.is_alive():
-                m.process.terminate()
+            if p.poll() is None:
+                p.terminate()
         deadline = time.monotonic() + timeout
-        for m in running:
-            m.process.join(max(0.0, deadline - time.monotonic()))
-            if m.process.is_alive():
+        for m, p in running:
+            try:
+                p.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
                 log.error("%s did not stop within %g s: killing it", m.spec.name, timeout)
-                m.process.kill()
-                m.process.join(2.0)
-            m.exitcode = m.process.exitcode
+                p.kill()
+                p.wait(2.0)
+            m.exitcode = p.returncode
         return {n: m.exitcode for n, m in self._managed.items()}

@@ -121,3 +121,20 @@ def test_a_busy_endpoint_is_a_clear_error(bus_pair: tuple[BusOptions, BusOptions
     with Service("first", bus_pair[0], handle_signals=False), pytest.raises(
             OptionError, match="cannot open the Zenoh session"):
         Service("second", bus_pair[0], handle_signals=False).open()
+
+
+def test_publishing_after_close_sends_nothing_and_raises_nothing(
+    peer: Service, bus_pair: tuple[BusOptions, BusOptions]
+) -> None:
+    # A queryable or subscriber callback may still answer while its service stops.
+    got = peer.inbox("frame", capacity=8)
+    with Service("source", bus_pair[1], handle_signals=False) as svc:
+        deadline = time.monotonic() + 10
+        while got.get(0.1) is None:  # until the peers have found each other
+            assert time.monotonic() < deadline, "no frame arrived"
+            svc.put(svc.key("frame"), frame(svc, 0))
+    while got.get(0.3) is not None:  # frames sent before the close
+        pass
+    svc.put(svc.key("frame"), frame(svc, 1))
+    svc.publish(Frame.from_array(svc.header(2), np.zeros((8, 8, 3), np.uint8)))
+    assert got.get(0.5) is None
