@@ -4,8 +4,10 @@ Columns of the CSV (one row per frame, written and flushed as it comes, so a
 run cut short keeps every row before the cut)::
 
     frame, timestamp, success, confidence,
-    pose_Tx, pose_Ty, pose_Tz, pose_roll, pose_pitch, pose_yaw,
-    x_0 ... x_{N-1}, y_0 ... y_{N-1}, expression, score_<class> ...
+    pose_Tx, pose_Ty, pose_Tz, pose_roll, pose_pitch, pose_yaw, pose_reliable,
+    x_0 ... x_{N-1}, y_0 ... y_{N-1}, expression, score_<class> ..., reason
+
+``reason`` says why a frame has no face, a failed fit or an unreliable pose.
 
 Translations are millimetres in camera coordinates, angles degrees; a value
 that does not exist for a frame (no face, no pose) is left empty. JSON Lines
@@ -30,9 +32,9 @@ FORMATS = ("csv", "jsonl")
 def columns(n_points: int, class_names: Sequence[str]) -> list[str]:
     """The CSV header for ``n_points`` landmarks and these expression classes."""
     return (["frame", "timestamp", "success", "confidence", "pose_Tx", "pose_Ty", "pose_Tz",
-             "pose_roll", "pose_pitch", "pose_yaw"]
+             "pose_roll", "pose_pitch", "pose_yaw", "pose_reliable"]
             + [f"x_{i}" for i in range(n_points)] + [f"y_{i}" for i in range(n_points)]
-            + ["expression"] + [f"score_{name}" for name in class_names])
+            + ["expression"] + [f"score_{name}" for name in class_names] + ["reason"])
 
 
 def _cell(value: float) -> str:
@@ -53,8 +55,9 @@ def row(result: FaceResult, n_points: int, class_names: Sequence[str]) -> list[s
     scores = [_cell(result.expression_scores.get(name, math.nan)) for name in class_names]
     return ([str(result.frame_index), f"{result.timestamp:.6f}", str(int(result.success)),
              f"{result.confidence:.4f}", *pose, _cell(result.roll_deg),
-             _cell(result.pitch_deg), _cell(result.yaw_deg), *xs, *ys,
-             result.expression or "", *scores])
+             _cell(result.pitch_deg), _cell(result.yaw_deg),
+             str(int(result.pose_reliable)) if t is not None else "", *xs, *ys,
+             result.expression or "", *scores, result.reason])
 
 
 class ResultWriter:

@@ -34,6 +34,8 @@ def test_csv_rows_have_the_openface_like_columns(tmp_path: Path) -> None:
     assert float(rows[0]["y_0"]) == 1.0 and rows[0]["expression"] == "HA"
     assert float(rows[0]["score_HA"]) == 0.75
     assert rows[1]["success"] == "0" and rows[1]["pose_Tz"] == "" and rows[1]["x_0"] == ""
+    assert rows[0]["pose_reliable"] == "1" and rows[0]["reason"] == ""
+    assert rows[1]["pose_reliable"] == "" and rows[1]["reason"] == "no face"
 
 
 def test_json_lines_hold_one_result_each(tmp_path: Path) -> None:

@@ -56,6 +56,7 @@ def test_a_recording_exports_one_row_per_frame_matching_its_messages(
         np.testing.assert_allclose([float(r[c]) for c in ("pose_Tx", "pose_Ty", "pose_Tz")],
                                    pose.translation_mm, rtol=1e-5, atol=1e-3)
         assert float(r["pose_yaw"]) == pytest.approx(pose.yaw_deg, abs=1e-4)
+        assert r["pose_reliable"] == str(int(pose.reliable))
         assert r["expression"] == labels[k]
     lines = [json.loads(line) for line in out_jsonl.read_text().splitlines()]
     assert len(lines) == 72 and lines[10]["expression"] == labels[10]
