@@ -39,9 +39,9 @@ def integral_histogram(crop: np.ndarray, bins: int) -> np.ndarray:
     magnitude = np.hypot(gx, gy).astype(np.float64)
     angle = np.mod(np.arctan2(gy, gx), np.pi)
     index = np.minimum((angle * (bins / np.pi)).astype(np.int64), bins - 1)
-    planes = [cv2.integral(np.where(index == b, magnitude, 0.0), sdepth=cv2.CV_64F)
-              for b in range(bins)]
-    return np.dstack(planes)
+    planes = np.zeros((*crop.shape, bins))
+    np.put_along_axis(planes, index[..., None], magnitude[..., None], axis=2)
+    return cv2.integral(planes, sdepth=cv2.CV_64F)
 
 
 def hog_block(crop: np.ndarray, points: np.ndarray, config: FeatureConfig) -> np.ndarray:
