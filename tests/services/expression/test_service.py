@@ -20,10 +20,11 @@ from aamcore.expression.recogniser import ExpressionRecogniser
 from aamcore.expression.training import stack_observations
 from aamcore.fitting.model import FittingModel
 from aamcore.io.jaffe import load_jaffe
-from proto import Fit, Frame, Header
+from proto import Fit, Frame, Header, encode
 from proto.keys import status_key, topic_key
 from services.bus.connection import BusOptions
 from services.bus.options import options_argv
+from services.bus.qos import MUST_ARRIVE
 from services.bus.session import Service
 from services.expression.service import (
     Unclassified,
@@ -159,8 +160,8 @@ def test_the_service_pairs_each_fit_with_its_frame_and_counts_what_it_cannot_cla
         time.sleep(0.5)  # the service's subscribers meet the peer's publishers
         for k, (_, frame, fit) in enumerate(stream):
             first, second = (fit, frame) if k % 7 == 3 else (frame, fit)  # a fit may come first
-            peer.publish(first)
-            peer.publish(second)
+            for message in (first, second):
+                peer.put(message.key(), encode(message), MUST_ARRIVE)
             time.sleep(0.01)
         got: dict[int, object] = {}
         deadline = time.monotonic() + 30
@@ -189,8 +190,9 @@ def test_fits_of_another_landmark_scheme_make_the_service_degraded(
     try:
         assert peer.wait_for_alive(["expression"], 30) == []
         time.sleep(0.5)
-        peer.publish(frame)
-        peer.publish(fit_of(frame, np.full((58, 2), 100.0), np.zeros(3), scheme="imm58"))
+        for message in (frame, fit_of(frame, np.full((58, 2), 100.0), np.zeros(3),
+                                      scheme="imm58")):
+            peer.put(message.key(), encode(message), MUST_ARRIVE)
         deadline = time.monotonic() + 10
         last = None
         while time.monotonic() < deadline and (last is None or last.state != "degraded"):
