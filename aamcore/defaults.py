@@ -22,8 +22,6 @@ THESIS_OFFSETS: tuple[int, ...] = tuple(
 """Displacements in pixels of the thesis's Monte Carlo fitting runs (tables 7.1, 7.2)."""
 FIT_STARTS = ("cog", "haar")
 """The Monte Carlo runs' starts: centre of gravity and Haar box (section 7.3)."""
-EXPRESSION_VARIANCES: tuple[float, ...] = (0.95, 0.97, 0.98, 0.99, 0.995, 0.999)
-"""Kept-variance fractions of the expression benchmark (table 9.2)."""
 SVM_GRID_NAMES = ("full", "coarse")
 """Named (C, gamma) grids of the SVM search (:data:`aamcore.expression.svm.SVM_GRIDS`)."""
 MODEL_DATASET = "lfpw"

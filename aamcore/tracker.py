@@ -67,10 +67,16 @@ class FaceResult:
         The rotation as angles (NaN without a pose).
     pose_reliable : bool
     expression : str or None
+        None when no classifier was given, or the face was not classified
+        (``expression_reason`` says why).
     expression_scores : dict of str to float
     reason : str
         Why there is no face, the fit failed, there is no pose or the pose is
         unreliable; empty otherwise.
+    expression_reason : str
+        Why there is no expression (``"<key>: <details>"``: no face, face in
+        profile, learning the face's reference, ...); empty with one or
+        without a classifier.
     """
 
     frame_index: int
@@ -88,6 +94,7 @@ class FaceResult:
     expression: str | None = None
     expression_scores: dict[str, float] = field(default_factory=dict)
     reason: str = ""
+    expression_reason: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """The result as plain JSON-ready data (lists, floats, None for what is missing)."""
@@ -106,25 +113,41 @@ class FaceResult:
             "roll_deg": num(self.roll_deg), "pitch_deg": num(self.pitch_deg),
             "yaw_deg": num(self.yaw_deg), "pose_reliable": self.pose_reliable,
             "expression": self.expression, "expression_scores": dict(self.expression_scores),
-            "reason": self.reason,
+            "reason": self.reason, "expression_reason": self.expression_reason,
         }
 
 
-def _model(model: str | Path | FittingModel | None) -> FittingModel:
+def _model(model: str | Path | FittingModel | None) -> tuple[FittingModel, Path | None]:
+    """The fitting model and its file (None when given loaded)."""
     if isinstance(model, FittingModel):
-        return model
+        return model, None
     if model is None:
         from aamcore.fitting.training.prepare import default_model_path
 
         model = default_model_path()
-    return FittingModel.load(model)
+    return FittingModel.load(model), Path(model)
 
 
-def _classifier(classifier: str | Path | ExpressionClassifier | None
-                ) -> ExpressionClassifier | None:
-    if classifier is None or isinstance(classifier, ExpressionClassifier):
-        return classifier
-    return ExpressionClassifier.load(classifier)
+def _recogniser(classifier: str | Path | ExpressionClassifier | None, model: FittingModel,
+                path: Path | None, smooth: int) -> ExpressionRecogniser | None:
+    """The expression recogniser of a classifier for ``model``'s fits, or None without one.
+
+    Raises
+    ------
+    ClassifierFileError, AAMMismatchError
+        For an unreadable classifier file, or a classifier made for another model.
+    """
+    if classifier is None:
+        return None
+    if not isinstance(classifier, ExpressionClassifier):
+        classifier = ExpressionClassifier.load(classifier)
+    if path is not None:
+        from aamcore.expression.training import model_fingerprint
+
+        classifier.check_aam(model_fingerprint(path))
+    aam = model.aam
+    classifier.check_fit(aam.scheme.name, aam.scheme.n_points, aam.n_appearance)
+    return ExpressionRecogniser(classifier, smooth)
 
 
 class FaceTracker:
@@ -135,7 +158,10 @@ class FaceTracker:
     model : path or FittingModel, optional
         The fitting model; the default model (trained and cached on first use) if None.
     classifier : path or ExpressionClassifier, optional
-        Expression classifier for the model's faces; no expression without one.
+        Expression classifier for the model's fits
+        (:func:`aamcore.expression.training.classifier_path` makes one); no
+        expression without one. A classifier made for another model is refused
+        (:class:`~aamcore.expression.AAMMismatchError`).
     camera : str or float, optional
         A calibration file, or a horizontal field of view in degrees
         (:data:`aamcore.defaults.FOV_DEG` if None).
@@ -146,22 +172,25 @@ class FaceTracker:
     pose_estimator : str
         One of :data:`aamcore.defaults.POSE_ESTIMATORS`
         (:class:`~aamcore.pose.estimator.HeadPoseEstimator`).
+    expression_smooth : int
+        Average the expression scores over this many classified frames (the
+        expression service's ``--smooth``; 1: none).
     """
 
     def __init__(self, model: str | Path | FittingModel | None = None,
                  classifier: str | Path | ExpressionClassifier | None = None,
                  camera: str | float | None = None, *, algorithm: str = defaults.ALGORITHM,
                  failure_test: str = defaults.FAILURE_TEST, smoothing: bool = False,
-                 pose_estimator: str = defaults.POSE_ESTIMATOR) -> None:
-        self.model = _model(model)
+                 pose_estimator: str = defaults.POSE_ESTIMATOR,
+                 expression_smooth: int = 1) -> None:
+        self.model, path = _model(model)
         fitter = Fitter(self.model, algorithm, failure_test=failure_test)
         self.tracker = Tracker(fitter, HaarFaceDetector())
         calibration = camera if isinstance(camera, str | Path) else None
         fov = float(camera) if isinstance(camera, int | float) else defaults.FOV_DEG
         cameras = Cameras(fov, str(calibration) if calibration else None)
         self.pose = HeadPoseTracker(HeadPoseEstimator(cameras, method=pose_estimator), smoothing)
-        loaded = _classifier(classifier)
-        self.expression = ExpressionRecogniser(loaded) if loaded is not None else None
+        self.expression = _recogniser(classifier, self.model, path, expression_smooth)
         self.landmarks = LandmarkSmoother() if smoothing else None
         self.frames = 0
 
@@ -183,7 +212,9 @@ class FaceTracker:
             self.pose.reset()
             if self.landmarks is not None:
                 self.landmarks.reset()
-            return FaceResult(index, t, False, 0.0, np.zeros((0, 2)), reason=NO_FACE)
+            found = self.recognise(index, frame, None, None)
+            return FaceResult(index, t, False, 0.0, np.zeros((0, 2)), reason=NO_FACE,
+                              expression_reason=found.reason if found else "")
         points = (fit.points if self.landmarks is None
                   else self.landmarks.update(fit.points, t, fit.ok))
         try:
@@ -191,17 +222,20 @@ class FaceTracker:
                                          fit.failed), ""
         except (PoseError, IntrinsicsError) as exc:
             pose, why = None, f"no pose: {exc}"
-        expression = self.recognise(index, fit)
+        expression = self.recognise(index, frame, fit, points)
         return result_of(index, t, fit, points, pose, why, expression)
 
-    def recognise(self, index: int, fit: FitResult) -> Recognition | None:
-        """The expression of a good fit, when a classifier was given."""
-        if self.expression is None or fit.failed:
+    def recognise(self, index: int, frame: np.ndarray, fit: FitResult | None,
+                  points: np.ndarray | None) -> Recognition | None:
+        """The expression of frame ``index`` from its fit (None: no face) and the landmarks
+        the result carries (smoothed or not), as the expression service computes it from the
+        frame and the ``Fit`` message; None without a classifier."""
+        if self.expression is None:
             return None
-        try:
-            return self.expression.recognise(index, fit.c)
-        except ValueError:
-            return None
+        if fit is None:
+            return self.expression.recognise(index, frame, None, None, True, NO_FACE)
+        return self.expression.recognise(index, frame, points, fit.c, fit.failed, fit.reason,
+                                         self.model.aam.scheme.name)
 
     def process_video(self, path: str | Path) -> Iterator[FaceResult]:
         """The result of every frame of a video file, timestamps from its frame rate.
@@ -234,14 +268,18 @@ def result_of(index: int, t: float, fit: FitResult, points: np.ndarray, pose: He
               why: str, expression: Recognition | None) -> FaceResult:
     """A :class:`FaceResult` of its parts."""
     reason = fit.reason or why
-    scores = ({} if expression is None
-              else dict(zip(expression.class_names, map(float, expression.scores), strict=True)))
+    scores: dict[str, float] = {}
+    label, expression_reason = None, ""
+    if expression is not None:
+        label, expression_reason = expression.label, expression.reason
+        if expression.scores is not None:
+            scores = dict(zip(expression.class_names, map(float, expression.scores), strict=True))
     if pose is None:
         return FaceResult(index, t, fit.ok, fit.confidence, points, fit.similarity,
-                          reason=reason, expression=expression and expression.label,
-                          expression_scores=scores)
+                          reason=reason, expression=label, expression_scores=scores,
+                          expression_reason=expression_reason)
     est = pose.estimate
     roll, pitch, yaw = est.rpy
     return FaceResult(index, t, fit.ok, fit.confidence, points, fit.similarity, est.R, est.T,
                       float(roll), float(pitch), float(yaw), bool(est.reliable and fit.ok),
-                      expression and expression.label, scores, reason or pose.reason)
+                      label, scores, reason or pose.reason, expression_reason)

@@ -6,7 +6,8 @@
    renderer, source; ``--rerun`` adds the Rerun logger writing an ``.rrd``).
    Frames per second from the first frame's capture to the last fit, and
    whether every frame got a fit, every fit with landmarks a pose and every
-   good fit an expression. Target: >= 30 frames/s.
+   good fit an expression (from the frame where the face's reference is
+   learned). Target: >= 30 frames/s.
 2. **Latency** at real-time pacing (the file's 30 frames/s, looped
    ``--latency-loops`` times): capture to published pose, p50 and p99 over
    every pose. Target: p99 <= 50 ms.
@@ -33,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from aamcore.config import data_root
+from aamcore.expression.spec import STREAM_REFERENCE
 from services.stack.launcher import Stack, prepared
 from services.stack.options import StackOptions, parse_run_args
 from services.stack.recorder import load_messages
@@ -103,13 +105,17 @@ def throughput(result: RunResult) -> tuple[float, bool, str]:
     exprs = by_kind(result.messages, "expression")
     total = result.summary["total_frames"]
     with_face = {i for i, f in fits.items() if len(f.landmarks)}
-    good = {i for i, f in fits.items() if not f.failed}
+    # No expression while the expression service learns the face's reference (one run: the
+    # loops number their frames on).
+    warm_up = (STREAM_REFERENCE["min_count"] - 1) * STREAM_REFERENCE["stride"]
+    good = {i for i, f in fits.items() if not f.failed and i >= warm_up}
     complete = (len(fits) == total and with_face <= set(poses) and good <= set(exprs))
     first = min(m.header.capture_time_ns for m in fits.values())
     last = max(m.header.publish_time_ns for m in fits.values())
     fps = (total - 1) / ((last - first) / 1e9)
     note = (f"{total} frames: fits {len(fits)}, poses {len(poses)} (fits with a face "
-            f"{len(with_face)}), expressions {len(exprs)} (good fits {len(good)})")
+            f"{len(with_face)}), expressions {len(exprs)} (good fits from frame {warm_up} "
+            f"{len(good)})")
     return fps, complete, note
 
 

@@ -1,34 +1,43 @@
-"""Facial expression recognition from appearance vectors (thesis part II).
+"""Facial expression recognition from the fit and its frame (thesis part II, extended).
 
-- :mod:`.lda`: Fisher LDA projection and Mahalanobis classification.
-- :mod:`.concentration`: the k-means metric choosing the Fisher directions kept.
-- :mod:`.svm`: RBF SVMs on the unit hypersphere, one-against-all, one-against-one
-  and decision DAG, tuned by cross-validation split by poser.
-- :mod:`.classifier_file`: :class:`ExpressionClassifier`, saved without pickle.
-- :mod:`.evaluation`: leave-one-poser-out evaluation with per-fold features.
-- :mod:`.features`: the pixel PCA baseline features.
-- :mod:`.report`: confusion matrices as text and PNG.
-- :mod:`.benchmark`: the JAFFE benchmark.
+The pipeline (what the library and the expression service run per frame):
+
+- :mod:`.crop`: :class:`FaceObservation` (frame, landmarks, ``c``) and the
+  canonical, eye-aligned face frame;
+- :mod:`.hog_patches`: HOG patches around the landmarks, mirror symmetry;
+- :mod:`.quality`: the quality gate and its reasons;
+- :mod:`.analysis`: gate and feature blocks of one face (:func:`analyse_face`);
+- :mod:`.reference`: the stream's reference, a running median learned without labels;
+- :mod:`.spec`: :class:`PipelineSpec`, the feature, reference and gate settings;
+- :mod:`.face_classifier`: block-weighted shrinkage LDA (and the RBF SVM);
+- :mod:`.classifier_file`: :class:`ExpressionClassifier`, saved without pickle;
+- :mod:`.pipeline`: :class:`ExpressionPipeline`, one stream;
+- :mod:`.recogniser`: :class:`ExpressionRecogniser`, the pipeline with score smoothing.
+
+Training and measuring: :mod:`.training` (the classifier of the model in use,
+cached), :mod:`.variants` and :mod:`.benchmark` (leave-one-poser-out over all
+JAFFE faces), :mod:`.evaluation` (results, the thesis's classifiers),
+:mod:`.report`. The thesis's classifiers: :mod:`.lda` (Fisher LDA and
+Mahalanobis), :mod:`.concentration` (eq 9.8), :mod:`.svm` with
+:mod:`.hypersphere`, :mod:`.kernel_machines` and :mod:`.multiclass`.
 """
 
+from aamcore.expression.analysis import analyse_face, face_problem
 from aamcore.expression.classifier_file import (
     AAMMismatchError,
     ClassifierFileError,
     ExpressionClassifier,
 )
 from aamcore.expression.concentration import choose_n_components, concentration_study
-from aamcore.expression.evaluation import (
-    ClassifierSpec,
-    EvaluationResult,
-    FoldFeatures,
-    GivenFeatures,
-    default_classifiers,
-    leave_one_poser_out,
-)
-from aamcore.expression.features import PixelPCAFeatures, crop_faces
+from aamcore.expression.crop import FaceFeatureError, FaceObservation
+from aamcore.expression.evaluation import ClassifierSpec, EvaluationResult, default_classifiers
 from aamcore.expression.hypersphere import HypersphereMap
 from aamcore.expression.labels import FIVE_CLASSES, SEVEN_CLASSES
 from aamcore.expression.lda import FisherMahalanobis
+from aamcore.expression.pipeline import ExpressionEstimate, ExpressionPipeline
+from aamcore.expression.recogniser import ExpressionRecogniser, Recognition
+from aamcore.expression.reference import NeutralReference
+from aamcore.expression.spec import FeatureConfig, PipelineSpec, QualityLimits
 from aamcore.expression.svm import SVMExpressionClassifier, tune_svm
 
 __all__ = [
@@ -37,18 +46,25 @@ __all__ = [
     "ClassifierSpec",
     "EvaluationResult",
     "ExpressionClassifier",
+    "ExpressionEstimate",
+    "ExpressionPipeline",
+    "ExpressionRecogniser",
     "FIVE_CLASSES",
+    "FaceFeatureError",
+    "FaceObservation",
+    "FeatureConfig",
     "FisherMahalanobis",
-    "FoldFeatures",
-    "GivenFeatures",
     "HypersphereMap",
-    "PixelPCAFeatures",
+    "NeutralReference",
+    "PipelineSpec",
+    "QualityLimits",
+    "Recognition",
     "SEVEN_CLASSES",
     "SVMExpressionClassifier",
+    "analyse_face",
     "choose_n_components",
     "concentration_study",
-    "crop_faces",
     "default_classifiers",
-    "leave_one_poser_out",
+    "face_problem",
     "tune_svm",
 ]

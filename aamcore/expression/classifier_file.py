@@ -1,18 +1,27 @@
-"""A trained expression classifier, saved and loaded without pickle.
+"""A trained expression classifier with its feature pipeline, saved and loaded without pickle.
 
 A classifier file is one ``.npz`` archive. Its ``header`` entry holds UTF-8
 JSON bytes::
 
-    {"format": "aamtrack-expression-classifier", "format_version": 1,
-     "kind": "svm_dag", "class_names": ["NE", ...], "feature_dim": 17,
-     "aam_fingerprint": "...", "info": {...}}
+    {"format": "aamtrack-expression-classifier", "format_version": 2,
+     "kind": "linear", "class_names": ["NE", ...], "feature_dim": 1972,
+     "aam_fingerprint": "...", "info": {...}, "pipeline": {...}}
 
 and every other entry is a plain numeric array of the pure numpy predictor
-(:class:`~aamcore.expression.lda.MahalanobisModel` or
-:class:`~aamcore.expression.svm.SVMModel`), so the archive loads with
-``allow_pickle=False``. ``aam_fingerprint`` names the AAM whose appearance
-vectors ``c`` the classifier was trained on: appearance vectors of another AAM
-have another meaning, and :meth:`ExpressionClassifier.check_aam` refuses them.
+(:class:`~aamcore.expression.face_classifier.LinearModel`,
+:class:`~aamcore.expression.lda.MahalanobisModel` or
+:class:`~aamcore.expression.svm.SVMModel`) or the pipeline's shape template
+(``pipeline_template``), so the archive loads with ``allow_pickle=False``.
+
+``pipeline`` is the :class:`~aamcore.expression.spec.PipelineSpec`: which
+features are classified, relative to which reference, behind which quality
+gate. ``aam_fingerprint`` names the fitting model whose fits the classifier
+was trained on: landmarks and appearance vectors of another model have
+another meaning, and :meth:`ExpressionClassifier.check_aam` refuses them.
+Refused at load, each with what to do: another format version (format 1
+classified raw appearance vectors and had no pipeline), features of another
+:data:`~aamcore.expression.spec.FEATURE_VERSION`, a pipeline whose vectors
+do not fit the model.
 """
 
 from __future__ import annotations
@@ -24,14 +33,18 @@ from typing import Any
 
 import numpy as np
 
+from aamcore.expression.crop import N_LANDMARKS
+from aamcore.expression.face_classifier import FittedFaceClassifier, LinearModel
 from aamcore.expression.lda import FisherMahalanobis, MahalanobisModel
+from aamcore.expression.spec import FEATURE_VERSION, PipelineSpec
 from aamcore.expression.svm import SVMExpressionClassifier, SVMModel
 from aamcore.io.versioned import checked_header
 
 FORMAT_NAME = "aamtrack-expression-classifier"
-FORMAT_VERSION = 1
-KINDS = ("lda_mahalanobis", "svm_ova", "svm_ovo", "svm_dag")
+FORMAT_VERSION = 2
+KINDS = ("linear", "lda_mahalanobis", "svm_ova", "svm_ovo", "svm_dag")
 _HEADER = "header"
+_TEMPLATE = "pipeline_template"
 
 
 class ClassifierFileError(ValueError):
@@ -39,15 +52,15 @@ class ClassifierFileError(ValueError):
 
 
 class AAMMismatchError(ValueError):
-    """A classifier is used with appearance vectors of another AAM than it was trained on."""
+    """A classifier is used with fits of another fitting model than it was trained on."""
 
 
-Model = MahalanobisModel | SVMModel
+Model = LinearModel | MahalanobisModel | SVMModel
 
 
 @dataclass(frozen=True)
 class ExpressionClassifier:
-    """A trained expression classifier of appearance vectors.
+    """A trained expression classifier and the pipeline that makes the vectors it classifies.
 
     Attributes
     ----------
@@ -56,9 +69,11 @@ class ExpressionClassifier:
     class_names : tuple of str
         Class of each score column.
     aam_fingerprint : str
-        Identifies the AAM whose appearance vectors the classifier expects.
-    model : MahalanobisModel or SVMModel
+        Identifies the fitting model whose fits the classifier expects.
+    model : LinearModel, MahalanobisModel or SVMModel
         The pure numpy predictor.
+    pipeline : PipelineSpec
+        How the vectors classified are computed from a fit and its frame.
     info : dict
         Free JSON-serialisable notes (parameters, features, training set).
     """
@@ -67,12 +82,14 @@ class ExpressionClassifier:
     class_names: tuple[str, ...]
     aam_fingerprint: str
     model: Model
+    pipeline: PipelineSpec
     info: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise ValueError(f"unknown classifier kind {self.kind!r} (expected one of {KINDS})")
-        expected = MahalanobisModel if self.kind == "lda_mahalanobis" else SVMModel
+        expected = {"linear": LinearModel, "lda_mahalanobis": MahalanobisModel}.get(
+            self.kind, SVMModel)
         if not isinstance(self.model, expected):
             raise ValueError(f"a {self.kind} classifier needs a {expected.__name__}")
         if isinstance(self.model, MahalanobisModel):
@@ -81,20 +98,38 @@ class ExpressionClassifier:
             n_scores = self.model.n_classes
         if n_scores != len(self.class_names):
             raise ValueError(f"model has {n_scores} classes, {len(self.class_names)} names given")
+        if self.pipeline.feature_dim != self.feature_dim:
+            raise ValueError(f"the pipeline makes vectors of length {self.pipeline.feature_dim}, "
+                             f"the model expects {self.feature_dim}")
 
     @property
     def feature_dim(self) -> int:
-        """Length k of the appearance vectors classified."""
+        """Length d of the feature vectors classified."""
         return self.model.feature_dim
+
+    @classmethod
+    def from_face_classifier(
+        cls,
+        fitted: FittedFaceClassifier,
+        pipeline: PipelineSpec,
+        aam_fingerprint: str,
+        info: dict[str, Any] | None = None,
+    ) -> ExpressionClassifier:
+        """Wrap a classifier of :func:`~aamcore.expression.face_classifier.fit_face_classifier`
+        with the pipeline that makes its vectors."""
+        notes = {"classifier_params": fitted.params} | dict(info or {})
+        return cls(fitted.kind, fitted.classes, aam_fingerprint, fitted.model, pipeline, notes)
 
     @classmethod
     def from_estimator(
         cls,
         estimator: FisherMahalanobis | SVMExpressionClassifier,
         aam_fingerprint: str,
+        pipeline: PipelineSpec,
         info: dict[str, Any] | None = None,
     ) -> ExpressionClassifier:
-        """Wrap a fitted :class:`FisherMahalanobis` or :class:`SVMExpressionClassifier`."""
+        """Wrap a fitted :class:`FisherMahalanobis` or :class:`SVMExpressionClassifier`
+        (the thesis's classifiers) with the pipeline that makes its vectors."""
         if isinstance(estimator, FisherMahalanobis):
             kind = "lda_mahalanobis"
         elif isinstance(estimator, SVMExpressionClassifier):
@@ -104,7 +139,7 @@ class ExpressionClassifier:
         if not hasattr(estimator, "model_"):
             raise ValueError("the estimator is not fitted")
         names = tuple(str(c) for c in estimator.classes_)
-        return cls(kind, names, aam_fingerprint, estimator.model_, dict(info or {}))
+        return cls(kind, names, aam_fingerprint, estimator.model_, pipeline, dict(info or {}))
 
     def scores(self, X: np.ndarray) -> np.ndarray:
         """Per-class scores of the rows of X (n, k), shape (n, n_classes); higher is likelier."""
@@ -117,35 +152,26 @@ class ExpressionClassifier:
         """Class name of each row of X (n, k), shape (n,)."""
         return np.array(self.class_names)[np.argmax(self.scores(X), axis=1)]
 
-    def classify(self, c: np.ndarray) -> tuple[str, np.ndarray]:
-        """Classify one appearance vector.
-
-        Parameters
-        ----------
-        c : (k,) array
-            Appearance vector of the AAM named by ``aam_fingerprint``.
-
-        Returns
-        -------
-        label : str
-            The class of highest score.
-        scores : (n_classes,) float64 array
-            Per-class scores in ``class_names`` order.
+    def check_fit(self, scheme: str, n_landmarks: int, appearance_dim: int) -> None:
+        """Refuse fits of another landmark scheme or appearance length than the pipeline's.
 
         Raises
         ------
-        ValueError
-            If ``c`` has the wrong shape or a non-finite entry.
+        AAMMismatchError
+            If the fit does not match the pipeline.
         """
-        c = np.asarray(c, dtype=np.float64)
-        if c.shape != (self.feature_dim,):
-            raise ValueError(
-                f"expected an appearance vector of shape ({self.feature_dim},), got {c.shape}"
+        spec = self.pipeline
+        if scheme != spec.scheme or n_landmarks != N_LANDMARKS:
+            raise AAMMismatchError(
+                f"this expression classifier was trained on {spec.scheme} fits "
+                f"({N_LANDMARKS} landmarks), not on {scheme} fits with {n_landmarks} landmarks: "
+                "retrain it for this fitting model"
             )
-        if not np.isfinite(c).all():
-            raise ValueError("the appearance vector has a non-finite entry")
-        scores = self.model.scores(c[None, :])[0]
-        return self.class_names[int(np.argmax(scores))], scores
+        if appearance_dim != spec.appearance_dim:
+            raise AAMMismatchError(
+                f"this expression classifier was trained on fits with {spec.appearance_dim} "
+                f"appearance parameters, this fit has {appearance_dim}: retrain it for this AAM"
+            )
 
     def check_aam(self, fingerprint: str) -> None:
         """Refuse an AAM other than the one the classifier was trained on.
@@ -157,8 +183,8 @@ class ExpressionClassifier:
         """
         if fingerprint != self.aam_fingerprint:
             raise AAMMismatchError(
-                f"this expression classifier was trained on appearance vectors of AAM "
-                f"{self.aam_fingerprint!r}, not of AAM {fingerprint!r}: retrain it for this AAM"
+                f"this expression classifier was trained on the fits of model "
+                f"{self.aam_fingerprint!r}, not of model {fingerprint!r}: retrain it for this AAM"
             )
 
     def header(self) -> dict[str, Any]:
@@ -171,6 +197,7 @@ class ExpressionClassifier:
             "feature_dim": self.feature_dim,
             "aam_fingerprint": self.aam_fingerprint,
             "info": self.info,
+            "pipeline": self.pipeline.to_json(),
         }
 
     def save(self, path: str | Path) -> Path:
@@ -180,6 +207,8 @@ class ExpressionClassifier:
             path = path.with_name(path.name + ".npz")
         header = np.frombuffer(json.dumps(self.header()).encode("utf-8"), dtype=np.uint8)
         arrays = {k: np.asarray(v) for k, v in self.model.to_arrays().items()}
+        if self.pipeline.template is not None:
+            arrays[_TEMPLATE] = np.asarray(self.pipeline.template, np.float64)
         np.savez(path, **{_HEADER: header}, **arrays)
         return path
 
@@ -204,12 +233,17 @@ class ExpressionClassifier:
         header = _read_header(path, arrays.pop(_HEADER, None))
         kind = header["kind"]
         names = tuple(header["class_names"])
+        template = arrays.pop(_TEMPLATE, None)
         try:
-            if kind == "lda_mahalanobis":
-                model: Model = MahalanobisModel.from_arrays(arrays)
+            pipeline = PipelineSpec.from_json(header["pipeline"], template)
+            if kind == "linear":
+                model: Model = LinearModel.from_arrays(arrays)
+            elif kind == "lda_mahalanobis":
+                model = MahalanobisModel.from_arrays(arrays)
             else:
                 model = SVMModel.from_arrays(arrays, kind.removeprefix("svm_"), len(names))
-            classifier = cls(kind, names, header["aam_fingerprint"], model, header["info"])
+            classifier = cls(kind, names, header["aam_fingerprint"], model, pipeline,
+                             header["info"])
         except (KeyError, ValueError, TypeError, IndexError) as exc:
             raise ClassifierFileError(f"{path}: inconsistent classifier arrays ({exc})") from exc
         if classifier.feature_dim != header["feature_dim"]:
@@ -223,10 +257,19 @@ class ExpressionClassifier:
 def _read_header(path: Path, raw: np.ndarray | None) -> dict[str, Any]:
     """Decode and check the JSON header of a classifier file."""
     header = checked_header(path, raw, FORMAT_NAME, FORMAT_VERSION, "classifier",
-                            "retrain or convert the classifier", ClassifierFileError)
-    missing = {"kind", "class_names", "feature_dim", "aam_fingerprint", "info"} - set(header)
+                            "retrain it (aamtrack model prepare trains the stack's; format 1 "
+                            "classified raw appearance vectors)", ClassifierFileError)
+    needed = {"kind", "class_names", "feature_dim", "aam_fingerprint", "info", "pipeline"}
+    missing = needed - set(header)
     if missing:
         raise ClassifierFileError(f"{path}: header lacks {', '.join(sorted(missing))}")
     if header["kind"] not in KINDS:
         raise ClassifierFileError(f"{path}: unknown classifier kind {header['kind']!r}")
+    pipeline = header["pipeline"]
+    found = pipeline.get("feature_version") if isinstance(pipeline, dict) else None
+    if found != FEATURE_VERSION:
+        raise ClassifierFileError(
+            f"{path}: the classifier was trained on face features of version {found}, this "
+            f"aamtrack computes version {FEATURE_VERSION}: retrain the classifier"
+        )
     return header

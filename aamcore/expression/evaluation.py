@@ -1,57 +1,31 @@
-"""Leave-one-poser-out evaluation of expression classifiers (thesis 9.2 and 10.2).
+"""Leave-one-poser-out results and the thesis's classifiers (thesis 9.2 and 10.2).
 
 With few posers, a fair estimate of recognition on unseen people tests each
-poser with everything fitted on the other posers only. Per fold:
-
-1. the feature extractor is fitted on the training inputs
-   (:class:`FoldFeatures`: the pixel PCA baseline now, the AAM fitted
-   appearance vector ``c`` later) and maps training and test inputs;
-2. each classifier fits on the training features, choosing its own
-   hyper-parameters inside the training data (number of Fisher directions by
-   eq 9.8, SVM ``C`` and ``gamma`` by a cross-validation split by poser);
-3. the test poser's samples are predicted.
-
-The predictions of all folds form one confusion matrix per classifier.
+poser with everything fitted on the other posers only
+(:func:`aamcore.expression.benchmark.evaluate_variant` runs the folds). This
+module holds what the folds produce, :class:`EvaluationResult` (over every
+face of the class set: a face the pipeline refused is predicted
+:data:`NOT_CLASSIFIED` and counted wrong), and the thesis's classifiers as
+:class:`ClassifierSpec` (LDA + Mahalanobis with the Fisher directions chosen by
+eq 9.8, RBF SVMs with C and gamma chosen by a cross-validation split by
+poser), which choose their hyper-parameters inside the training data.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 from sklearn.metrics import confusion_matrix
-from threadpoolctl import threadpool_limits
 
 from aamcore.expression.concentration import choose_n_components
 from aamcore.expression.lda import FisherMahalanobis
 from aamcore.expression.svm import C_GRID, GAMMA_GRID, tune_svm
 
-Inputs = np.ndarray | Sequence[Any]
-"""Per-sample inputs of a feature extractor: an array (n, ...) or a sequence of n items."""
-
-
-class FoldFeatures(Protocol):
-    """A feature extractor fitted anew in every fold.
-
-    ``name`` labels the outputs; ``fit`` sees only the training inputs and
-    returns the map from inputs (a subset of the same kind) to features (m, d).
-    """
-
-    name: str
-
-    def fit(self, train_inputs: Inputs) -> Callable[[Inputs], np.ndarray]: ...
-
-
-class GivenFeatures:
-    """Inputs that already are a feature matrix (n, d), used as they are."""
-
-    name = "given features"
-
-    def fit(self, train_inputs: Inputs) -> Callable[[Inputs], np.ndarray]:
-        """Return the identity map (to float64)."""
-        return lambda inputs: np.asarray(inputs, dtype=np.float64)
+NOT_CLASSIFIED = "--"
+"""The prediction of a face the pipeline refused (no face, the quality gate): always wrong."""
 
 
 @dataclass(frozen=True)
@@ -106,18 +80,23 @@ def default_classifiers(
 
 @dataclass
 class EvaluationResult:
-    """Leave-one-poser-out predictions of one classifier on one feature set.
+    """Leave-one-poser-out predictions of one pipeline over every face of a class set.
 
     Attributes
     ----------
-    classifier, features : str
-        Names of the classifier and of the feature extractor.
+    classifier : str
+        Name of the row (pipeline variant or classifier).
+    features : str
+        What was classified.
     class_names : tuple of str
-        Row and column order of the confusion matrix.
-    y_true, y_pred, test_poser : (n,) arrays
-        True and predicted class and poser of every test sample.
+        Row order of the confusion matrix.
+    y_true, y_pred, test_poser : (n,) str arrays
+        True and predicted class and poser of every face; ``y_pred`` is
+        :data:`NOT_CLASSIFIED` for a face the pipeline refused.
     fold_params : dict
-        Per test poser: the classifier's chosen parameters and ``n_features``.
+        Per test poser: the classifier's chosen parameters.
+    refused : list of str
+        ``"file: reason"`` of each refused face.
     """
 
     classifier: str
@@ -127,30 +106,39 @@ class EvaluationResult:
     y_pred: np.ndarray
     test_poser: np.ndarray
     fold_params: dict[str, dict[str, Any]] = field(default_factory=dict)
+    refused: list[str] = field(default_factory=list)
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """The confusion matrix's columns: the classes, then :data:`NOT_CLASSIFIED` when a
+        face was refused."""
+        refused = bool(np.any(self.y_pred == NOT_CLASSIFIED))
+        return (*self.class_names, NOT_CLASSIFIED) if refused else self.class_names
 
     def confusion(self) -> np.ndarray:
-        """Counts, rows true class, columns predicted, shape (n_classes, n_classes)."""
-        return confusion_matrix(self.y_true, self.y_pred, labels=list(self.class_names))
+        """Counts, rows true class, columns :attr:`columns`, shape (n_classes, n_columns)."""
+        counts = confusion_matrix(self.y_true, self.y_pred, labels=list(self.columns))
+        return counts[: len(self.class_names)]
 
     def confusion_percent(self) -> np.ndarray:
-        """Each row as percentages of its true class (tables 9.3-10.11), (n_classes, n_classes)."""
+        """Each row as percentages of its true class (tables 9.3-10.11), (n_classes, n_columns)."""
         counts = self.confusion().astype(np.float64)
         totals = counts.sum(axis=1, keepdims=True)
         return 100.0 * counts / np.maximum(totals, 1.0)
 
     @property
+    def n(self) -> int:
+        """Faces of the class set."""
+        return int(len(self.y_true))
+
+    @property
     def overall_rate(self) -> float:
-        """Fraction of test samples classified correctly."""
-        return float(np.mean(self.y_true == self.y_pred))
+        """Fraction of all faces classified correctly (refused ones count wrong)."""
+        return float(np.mean(self.y_true == self.y_pred)) if self.n else float("nan")
 
     def per_class_rates(self) -> np.ndarray:
         """Fraction of each class classified correctly, shape (n_classes,)."""
-        return np.diag(self.confusion_percent()) / 100.0
-
-    def mean_n_features(self) -> float:
-        """Mean feature dimension over the folds."""
-        dims = [p["n_features"] for p in self.fold_params.values()]
-        return float(np.mean(dims)) if dims else float("nan")
+        return np.diag(self.confusion_percent()[:, : len(self.class_names)]) / 100.0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable summary."""
@@ -158,135 +146,13 @@ class EvaluationResult:
             "classifier": self.classifier,
             "features": self.features,
             "class_names": list(self.class_names),
-            "n_samples": int(len(self.y_true)),
+            "columns": list(self.columns),
+            "n_samples": self.n,
             "overall_rate": self.overall_rate,
             "per_class_rates": dict(
                 zip(self.class_names, self.per_class_rates().tolist(), strict=True)
             ),
             "confusion_counts": self.confusion().tolist(),
+            "refused": list(self.refused),
             "fold_params": self.fold_params,
         }
-
-
-def take(inputs: Inputs, index: np.ndarray) -> Inputs:
-    """Rows ``index`` of an array, or items ``index`` of a sequence (as a list)."""
-    if isinstance(inputs, np.ndarray):
-        return inputs[index]
-    return [inputs[i] for i in index]
-
-
-def restrict_classes(labels: np.ndarray, keep: Sequence[str]) -> np.ndarray:
-    """Boolean mask (n,) of the samples whose label is in ``keep``."""
-    return np.isin(np.asarray(labels), list(keep))
-
-
-def _scalar_params(estimator: Any) -> dict[str, Any]:
-    params = estimator.get_params() if hasattr(estimator, "get_params") else {}
-    out = {}
-    for key, value in params.items():
-        if isinstance(value, np.generic):
-            value = value.item()
-        if isinstance(value, (int, float, str, bool)) or value is None:
-            out[key] = value
-    return out
-
-
-def _check_inputs(
-    inputs: Inputs, labels: np.ndarray, groups: np.ndarray, class_names: Sequence[str]
-) -> None:
-    if not (len(inputs) == len(labels) == len(groups)):
-        raise ValueError(
-            f"inputs, labels and groups differ in length: {len(inputs)}, {len(labels)}, "
-            f"{len(groups)}"
-        )
-    unknown = sorted(set(labels.tolist()) - set(class_names))
-    if unknown:
-        raise ValueError(f"labels {unknown} are not among the classes {list(class_names)}")
-    if len(np.unique(groups)) < 2:
-        raise ValueError("leave-one-poser-out needs at least 2 posers")
-
-
-def _run_folds(
-    inputs: Inputs,
-    labels: np.ndarray,
-    groups: np.ndarray,
-    features: FoldFeatures,
-    classifiers: Sequence[ClassifierSpec],
-    progress: Callable[[str], None] | None,
-) -> tuple[dict[str, np.ndarray], dict[str, dict[str, dict[str, Any]]]]:
-    """Fit and predict every fold of :func:`leave_one_poser_out`.
-
-    Returns
-    -------
-    predicted : dict
-        Classifier name -> predicted labels (n,), each from the fold that held its poser out.
-    params : dict
-        Classifier name -> poser -> the fold's scalar estimator parameters and ``n_features``.
-    """
-    predicted = {spec.name: np.empty(len(labels), dtype=labels.dtype) for spec in classifiers}
-    params: dict[str, dict[str, dict[str, Any]]] = {spec.name: {} for spec in classifiers}
-    # The problems are small: parallel BLAS threads only add overhead on them.
-    with threadpool_limits(limits=1):
-        for poser in np.unique(groups):
-            test = np.flatnonzero(groups == poser)
-            train = np.flatnonzero(groups != poser)
-            transform = features.fit(take(inputs, train))
-            X_train, X_test = transform(take(inputs, train)), transform(take(inputs, test))
-            for spec in classifiers:
-                estimator = spec.fit(X_train, labels[train], groups[train])
-                predicted[spec.name][test] = estimator.predict(X_test)
-                fold = _scalar_params(estimator) | {"n_features": int(X_train.shape[1])}
-                params[spec.name][str(poser)] = fold
-            if progress is not None:
-                progress(f"{features.name}: poser {poser} done ({len(test)} test samples)")
-    return predicted, params
-
-
-def leave_one_poser_out(
-    inputs: Inputs,
-    labels: np.ndarray,
-    groups: np.ndarray,
-    features: FoldFeatures | None = None,
-    classifiers: Sequence[ClassifierSpec] | None = None,
-    class_names: Sequence[str] | None = None,
-    progress: Callable[[str], None] | None = None,
-) -> list[EvaluationResult]:
-    """Evaluate classifiers with each poser held out in turn.
-
-    Parameters
-    ----------
-    inputs : (n, ...) array or sequence of n items
-        Per-sample inputs of ``features``; with the default ``features`` a
-        feature matrix (n, d).
-    labels : (n,) array of str
-        Class of each sample.
-    groups : (n,) array
-        Poser of each sample.
-    features : FoldFeatures, optional
-        Fitted on each training fold; :class:`GivenFeatures` by default.
-    classifiers : sequence of ClassifierSpec, optional
-        :func:`default_classifiers` by default.
-    class_names : sequence of str, optional
-        Confusion-matrix order; the sorted labels by default.
-    progress : callable, optional
-        Called with a line of text after each fold.
-
-    Returns
-    -------
-    list of EvaluationResult
-        One per classifier, in the order given.
-    """
-    labels = np.asarray(labels).astype(str)
-    groups = np.asarray(groups).astype(str)
-    features = features if features is not None else GivenFeatures()
-    classifiers = list(classifiers) if classifiers is not None else default_classifiers()
-    names = tuple(class_names) if class_names is not None else tuple(np.unique(labels))
-    _check_inputs(inputs, labels, groups, names)
-
-    predicted, params = _run_folds(inputs, labels, groups, features, classifiers, progress)
-    return [
-        EvaluationResult(
-            spec.name, features.name, names, labels, predicted[spec.name], groups, params[spec.name]
-        )
-        for spec in classifiers
-    ]

@@ -1,9 +1,13 @@
 """The expression of each tracked face, as the library and the expression service compute it.
 
-:class:`ExpressionRecogniser` classifies a good fit with an
-:class:`~aamcore.expression.classifier_file.ExpressionClassifier` and, when
-asked, averages the scores over the last few consecutive frames (a gap in the
-good fits starts the average again).
+:class:`ExpressionRecogniser` runs one stream's
+:class:`~aamcore.expression.pipeline.ExpressionPipeline` on each fit and its
+frame (quality gate, face features, the stream's reference, classifier) and,
+when asked, averages the scores over the last few consecutive classified
+frames (a frame without expression starts the average again).
+:class:`aamcore.tracker.FaceTracker` calls it with the frame it tracks, the
+expression service with the frame its fit names, so the two give the same
+expressions.
 """
 
 from __future__ import annotations
@@ -14,31 +18,40 @@ from dataclasses import dataclass
 import numpy as np
 
 from aamcore.expression.classifier_file import ExpressionClassifier
+from aamcore.expression.crop import SCHEME, FaceObservation
+from aamcore.expression.pipeline import LOST_FRAMES_RESET, ExpressionPipeline
 
 
 @dataclass(frozen=True, eq=False)
 class Recognition:
-    """An expression.
+    """An expression, or why there is none.
 
     Attributes
     ----------
-    label : str
-        The class of highest (smoothed) score.
+    label : str or None
+        The class of highest (smoothed) score; ``None``: no expression.
     class_names : tuple of str
-    scores : (C,) float64 array
-        Per-class scores in ``class_names`` order.
+    scores : (C,) float64 array or None
+        Per-class scores in ``class_names`` order; ``None`` without a label.
     smoothed : bool
         Whether more than one frame went into the scores.
+    reason : str
+        Why there is no expression, ``"<key>: <details>"``; empty with a label.
     """
 
-    label: str
+    label: str | None
     class_names: tuple[str, ...]
-    scores: np.ndarray
-    smoothed: bool
+    scores: np.ndarray | None
+    smoothed: bool = False
+    reason: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.label is not None
 
 
 class Smoother:
-    """Mean of the last ``n`` score vectors, restarted after a gap in good fits."""
+    """Mean of the last ``n`` score vectors, restarted after a gap in the frames given."""
 
     def __init__(self, n: int) -> None:
         if n < 1:
@@ -59,32 +72,76 @@ class Smoother:
 
 
 class ExpressionRecogniser:
-    """Classify the faces of a stream, frame by frame.
+    """Classify the faces of a stream, frame by frame, in frame order.
 
     Parameters
     ----------
     classifier : ExpressionClassifier
     smooth : int
-        Frames averaged (1: none).
+        Classified frames averaged (1: none).
+    lost_frames_reset : int
+        Frames without a classifiable face after which the stream's reference
+        is forgotten.
     """
 
-    def __init__(self, classifier: ExpressionClassifier, smooth: int = 1) -> None:
+    def __init__(self, classifier: ExpressionClassifier, smooth: int = 1,
+                 lost_frames_reset: int = LOST_FRAMES_RESET) -> None:
         self.classifier = classifier
+        self.pipeline = ExpressionPipeline(classifier, lost_frames_reset)
         self.smoother = Smoother(smooth)
+        self._last_index = -1
 
     def reset(self) -> None:
-        """Forget the frames seen: the next face starts a new average."""
+        """Forget the stream: its reference and the frames averaged."""
+        self.pipeline.reset()
         self.smoother.reset()
+        self._last_index = -1
 
-    def recognise(self, frame_index: int, appearance: np.ndarray) -> Recognition:
-        """The expression of a good fit of frame ``frame_index`` with appearance ``c`` (k,).
+    def recognise(
+        self,
+        frame_index: int,
+        image: np.ndarray,
+        landmarks: np.ndarray | None,
+        appearance: np.ndarray | None,
+        fit_failed: bool = False,
+        fit_reason: str = "",
+        scheme: str = SCHEME,
+    ) -> Recognition:
+        """The expression of frame ``frame_index``.
+
+        Parameters
+        ----------
+        frame_index : int
+            A frame index that does not follow the last one given starts the
+            stream afresh (a new run of the source).
+        image : (H, W) or (H, W, 3) uint8 array
+            The frame the fit was made on.
+        landmarks : (N, 2) array or None
+            The fit's landmarks in frame pixels; None or (0, 2) without a face.
+        appearance : (k,) array or None
+            The fit's appearance parameters ``c``.
+        fit_failed, fit_reason
+            The fitter's verdict (``"no face"`` when nothing was found).
+        scheme : str
+            The fit's landmark scheme.
 
         Raises
         ------
-        ValueError
-            For an appearance vector of another length, or a non-finite one.
+        AAMMismatchError
+            For a fit of another landmark scheme or appearance length than
+            the classifier's.
         """
-        _, scores = self.classifier.classify(np.asarray(appearance, np.float64))
-        scores, smoothed = self.smoother.add(frame_index, scores)
+        if frame_index <= self._last_index:
+            self.reset()
+        self._last_index = frame_index
+        if landmarks is not None and len(landmarks):
+            n_appearance = 0 if appearance is None else int(np.size(appearance))
+            self.classifier.check_fit(scheme, len(landmarks), n_appearance)
+        observation = FaceObservation.from_arrays(image, landmarks, appearance, fit_failed,
+                                                  fit_reason)
+        estimate = self.pipeline.process(observation)
         names = self.classifier.class_names
+        if estimate.scores is None:
+            return Recognition(None, names, None, False, estimate.reason)
+        scores, smoothed = self.smoother.add(frame_index, estimate.scores)
         return Recognition(names[int(np.argmax(scores))], names, scores, smoothed)

@@ -1,15 +1,19 @@
-"""Confusion matrices as text in the layout of tables 9.3-10.11 and as PNG heat maps."""
+"""The benchmark's table, confusion matrices as text in the layout of tables 9.3-10.11, and
+as PNG heat maps."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from aamcore.evaluation.plots import new_figure
+from aamcore.expression.benchmark import PROCESS_TARGET_MS, TARGETS, ExpressionBenchmark
 from aamcore.expression.evaluation import EvaluationResult
 from aamcore.expression.labels import short_name
+from aamcore.expression.variants import DEPLOYED
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -19,26 +23,26 @@ def _cell(value: float) -> str:
     """A percentage as in the thesis tables: ``0``, ``100`` or two decimals."""
     if value == 0.0:
         return "0"
-    text = f"{value:.2f}".rstrip("0").rstrip(".")
-    return text
+    return f"{value:.2f}".rstrip("0").rstrip(".")
 
 
 def format_confusion(result: EvaluationResult) -> str:
     """The confusion matrix as a tab-separated table with a caption and the overall rate.
 
-    Rows are true classes, columns predicted classes, cells percentages of
-    the row's class, then one line per class with its recognition rate.
+    Rows are true classes, columns predicted classes (and ``--``, refused,
+    when a face was), cells percentages of the row's class, then one line
+    per class with its recognition rate.
     """
     names = [short_name(c) for c in result.class_names]
-    percent = result.confusion_percent()
+    columns = [short_name(c) for c in result.columns]
     lines = [
         f"{result.classifier} confusion matrix, {result.features} "
         "(rows: true class, columns: predicted, %)",
-        "\t" + "\t".join(names),
+        "\t" + "\t".join(columns),
     ]
-    for name, row in zip(names, percent, strict=True):
+    for name, row in zip(names, result.confusion_percent(), strict=True):
         lines.append(name + "\t" + "\t".join(_cell(v) for v in row))
-    lines.append(f"Overall recognition rate = {100 * result.overall_rate:.1f}%")
+    lines.append(f"Overall recognition rate = {100 * result.overall_rate:.1f}% of {result.n}")
     rates = result.per_class_rates()
     lines.append(
         "Per class: " + ", ".join(f"{n} {100 * r:.1f}%" for n, r in zip(names, rates, strict=True))
@@ -48,32 +52,20 @@ def format_confusion(result: EvaluationResult) -> str:
 
 def confusion_figure(result: EvaluationResult) -> Figure:
     """A heat map of the row percentages with the value in every cell."""
-    names = [short_name(c) for c in result.class_names]
+    rows = [short_name(c) for c in result.class_names]
+    columns = [short_name(c) for c in result.columns]
     percent = result.confusion_percent()
-    n = len(names)
-    fig = new_figure(figsize=(1.0 + 0.8 * n, 1.0 + 0.75 * n), dpi=100)
+    fig = new_figure(figsize=(1.0 + 0.8 * len(columns), 1.0 + 0.75 * len(rows)), dpi=100)
     ax = fig.add_subplot()
     image = ax.imshow(percent, cmap="Blues", vmin=0.0, vmax=100.0)
-    ax.set_xticks(np.arange(n), names)
-    ax.set_yticks(np.arange(n), names)
+    ax.set_xticks(np.arange(len(columns)), columns)
+    ax.set_yticks(np.arange(len(rows)), rows)
     ax.set_xlabel("predicted")
     ax.set_ylabel("true class")
-    for i in range(n):
-        for j in range(n):
-            colour = "white" if percent[i, j] > 60 else "black"
-            ax.text(
-                j,
-                i,
-                _cell(round(percent[i, j], 1)),
-                ha="center",
-                va="center",
-                color=colour,
-                fontsize=8,
-            )
-    ax.set_title(
-        f"{result.classifier}, {result.features}\noverall {100 * result.overall_rate:.1f}%",
-        fontsize=9,
-    )
+    for (i, j), value in np.ndenumerate(percent):
+        ax.text(j, i, _cell(round(value, 1)), ha="center", va="center", fontsize=8,
+                color="white" if value > 60 else "black")
+    ax.set_title(f"{result.classifier}\noverall {100 * result.overall_rate:.1f}%", fontsize=9)
     fig.colorbar(image, ax=ax, fraction=0.046, pad=0.04, label="% of true class")
     fig.tight_layout()
     return fig
@@ -85,3 +77,63 @@ def save_confusion_png(result: EvaluationResult, path: str | Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     confusion_figure(result).savefig(path, format="png")
     return path
+
+
+def _verdicts(bench: ExpressionBenchmark) -> list[str]:
+    deployed = bench.results[DEPLOYED.name]
+    lines = []
+    for n, result in deployed.items():
+        verdict = "PASS" if bench.passed(n) else "FAIL"
+        lines.append(f"{verdict} {n} classes: deployed pipeline {100 * result.overall_rate:.1f}% "
+                     f"of all {result.n} faces (target >= {100 * TARGETS[n]:g}%)")
+    if bench.process_ms:
+        ms = bench.process_ms
+        verdict = "PASS" if bench.process_passed() else "FAIL"
+        lines.append(f"{verdict} time per frame (gate, features, classifier; saved and reloaded "
+                     f"classifier, CPU time): median {ms['median']:.2f} ms, mean "
+                     f"{ms['mean']:.2f} ms, max {ms['max']:.2f} ms (target median < "
+                     f"{PROCESS_TARGET_MS:g} ms)")
+    return lines
+
+
+def format_benchmark(bench: ExpressionBenchmark) -> str:
+    """The rows' table, the PASS/FAIL lines and the deployed row's confusion matrices."""
+    counts = sorted({n for by_n in bench.results.values() for n in by_n}, reverse=True)
+    lines = [
+        f"Expression recognition on JAFFE as the stack sees it (model {bench.model}): "
+        f"leave-one-poser-out over all {bench.n_faces} faces",
+        f"fits the fitter's own test rejected: {bench.n_fit_failed} (classified when the "
+        f"expression gate accepts them); faces not found: {bench.n_no_face}",
+        "",
+        f"{'row':58} " + "  ".join(f"{n} classes (n, refused)" for n in counts),
+    ]
+    for name, by_n in bench.results.items():
+        cells = [f"{100 * by_n[n].overall_rate:6.1f}% ({by_n[n].n:3d}, {len(by_n[n].refused):2d})"
+                 if n in by_n else f"{'':20}" for n in counts]
+        lines.append(f"{name:58} " + "    ".join(cells))
+    if bench.checked():
+        lines += ["", *_verdicts(bench)]
+        for result in bench.results[DEPLOYED.name].values():
+            lines += ["", format_confusion(result)]
+    refused = sorted({f for by_n in bench.results.values() for r in by_n.values()
+                      for f in r.refused})
+    if refused:
+        lines += ["", f"refused (counted wrong): {'; '.join(refused)}"]
+    return "\n".join(lines)
+
+
+def _slug(text: str) -> str:
+    return "".join(ch if ch.isalnum() else "_" for ch in text).strip("_").lower()
+
+
+def write_outputs(bench: ExpressionBenchmark, out_dir: str | Path) -> None:
+    """Write ``results.json``, ``confusions.txt`` and one PNG per row and class count."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "results.json").write_text(json.dumps(bench.to_dict(), indent=1))
+    texts = []
+    for name, by_n in bench.results.items():
+        for n, result in by_n.items():
+            texts.append(format_confusion(result))
+            save_confusion_png(result, out_dir / f"confusion_{n}classes_{_slug(name)}.png")
+    (out_dir / "confusions.txt").write_text("\n\n".join(texts) + "\n")

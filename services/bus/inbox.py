@@ -224,7 +224,19 @@ class Recent(_Holder):
             self._items.popitem(last=False)
             self._screen.stats.dropped += 1
 
-    def take(self, run_id: str, frame_index: int) -> Received | None:
-        """The message of that frame, or None if never or no longer kept."""
+    def take(self, run_id: str, frame_index: int, timeout: float = 0.0) -> Received | None:
+        """The message of that frame, or None if never or no longer kept.
+
+        With a ``timeout`` (seconds), a message not yet kept is waited for
+        that long (a result can arrive before the frame it belongs to: the
+        two travel from different publishers); a wake stops the wait.
+        """
+        key = (run_id, frame_index)
+        deadline = time.monotonic() + timeout
         with self._cond:
-            return self._items.pop((run_id, frame_index), None)
+            while key not in self._items and not self._woken:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    break
+                self._cond.wait(left)
+            return self._items.pop(key, None)

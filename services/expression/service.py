@@ -1,36 +1,59 @@
-"""The expression service: classifies the appearance vector of each good fit.
+"""The expression service: the facial expression of each fit, from the fit and its frame.
 
 ``aamtrack service expression --classifier FILE [--model FILE] [--smooth N]``
 
-Each fit that did not fail is classified by the
-:class:`~aamcore.expression.ExpressionClassifier`; with ``--smooth N`` the
-scores are averaged over the last N good fits (a failed fit or a lost face
-starts the average again) and the message says so. Without a usable
-classifier (none given, unreadable, or trained for another model) the service
-still runs: it takes fits, publishes no expression and says why in its status
-(state ``degraded``).
+For every fit the service takes the frame it was made on (the latest frames
+are kept by frame index, :meth:`~services.bus.receiving.Receiving.recent`)
+and hands both to the stream's
+:class:`~aamcore.expression.recogniser.ExpressionRecogniser`, as
+:class:`aamcore.tracker.FaceTracker` does with the frames it tracks: quality
+gate, face features (HOG patches at the landmarks, canonical shape), the
+stream's reference learned without labels, the classifier, and with
+``--smooth N`` the scores averaged over the last N classified frames. A frame
+without expression (no face, a face the gate refuses, the reference still
+being learned) publishes nothing; the status line counts each reason. A new
+run, or a frame index that goes back, starts the stream afresh.
+
+Without a usable classifier (none given, unreadable, of another format or
+feature version, made for another fitting model) the service still runs: it
+takes fits, publishes no expression and says why in its status (state
+``degraded``); so it does when fits of another landmark scheme or AAM arrive.
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Sequence
 
 import numpy as np
 
 from aamcore.expression import AAMMismatchError, ClassifierFileError, ExpressionClassifier
-from aamcore.expression.recogniser import ExpressionRecogniser
+from aamcore.expression.quality import reason_key
+from aamcore.expression.recogniser import ExpressionRecogniser, Recognition
 from aamcore.expression.training import model_fingerprint
-from proto import Expression, Fit
+from proto import Expression, Fit, ProtoError
 from services.bus.args import parse_service_args
+from services.bus.images import image_of
+from services.bus.inbox import Recent
 from services.bus.process import init_process
 from services.bus.session import Service
 from services.expression.options import ExpressionOptions
 
 NAME = "expression"
+FRAMES_KEPT = 64
+"""Frames kept for the fits still to come: more than the fit backlog, so that a fit waiting
+in it still finds its frame (about 44 MB of 640 x 360 BGR frames)."""
+FRAME_WAIT_S = 0.5
+"""How long a fit waits for its frame: the source's frame and the fitter's fit travel apart."""
 
 
 def load_classifier(path: str | None, model: str | None) -> tuple[ExpressionClassifier | None, str]:
-    """The classifier, or ``None`` and why there is none."""
+    """The classifier, or ``None`` and why there is none.
+
+    A classifier is refused when its file is unreadable or of another format
+    or feature version, or when it was trained on the fits of another fitting
+    model than ``model`` (fingerprint).
+    """
     if not path:
         return None, "no expression classifier given (--classifier)"
     try:
@@ -42,23 +65,91 @@ def load_classifier(path: str | None, model: str | None) -> tuple[ExpressionClas
     return classifier, ""
 
 
-def expression_message(svc: Service, fit: Fit, recogniser: ExpressionRecogniser) -> Expression:
-    """The expression of one good fit.
+class Unclassified:
+    """The status line's counts of the fits without expression, by the key of their reason."""
+
+    def __init__(self) -> None:
+        self.reasons: Counter[str] = Counter()
+        self.last = ""
+
+    def add(self, frame_index: int, reason: str) -> None:
+        self.reasons[reason_key(reason)] += 1
+        self.last = f"frame {frame_index}: {reason}"
+
+    def line(self) -> str:
+        """``"5 fits without expression: 3 no face, 2 face in profile; last: frame 9: ..."``"""
+        total = sum(self.reasons.values())
+        if not total:
+            return "every fit with an expression"
+        counts = ", ".join(f"{n} {key}" for key, n in self.reasons.most_common(6))
+        return f"{total} fits without expression: {counts}; last {self.last}"
+
+
+def expression_message(svc: Service, fit: Fit, found: Recognition) -> Expression:
+    """The message of a classified fit (``found.ok``)."""
+    assert found.label is not None and found.scores is not None
+    return Expression(svc.header_for(fit), found.label, found.class_names,
+                      found.scores.astype(np.float32), found.smoothed)
+
+
+def recognise(recogniser: ExpressionRecogniser, fit: Fit, image: np.ndarray) -> Recognition:
+    """The recogniser's answer for a fit and its frame's pixels (H, W[, 3]).
 
     Raises
     ------
-    ValueError
-        For an appearance vector of another length, or a non-finite one.
+    AAMMismatchError
+        For a fit of another landmark scheme or appearance length than the classifier's.
     """
-    found = recogniser.recognise(fit.header.frame_index, np.asarray(fit.appearance))
-    return Expression(svc.header_for(fit), found.label, found.class_names,
-                      found.scores.astype(np.float32), found.smoothed)
+    landmarks = fit.landmarks if len(fit.landmarks) else None
+    return recogniser.recognise(fit.header.frame_index, image, landmarks, fit.appearance,
+                                fit.failed, fit.failure_reason, fit.scheme)
+
+
+class ExpressionStream:
+    """The recogniser of the fits of one run, with the frames they were made on."""
+
+    def __init__(self, svc: Service, recogniser: ExpressionRecogniser, frames: Recent) -> None:
+        self.svc = svc
+        self.recogniser = recogniser
+        self.frames = frames
+        self.unclassified = Unclassified()
+        self._run: str | None = None
+
+    def handle(self, fit: Fit) -> Expression | None:
+        """The expression of a fit, or None (counted, or rejected when the fit is unusable)."""
+        h = fit.header
+        if h.run_id != self._run:
+            self._run = h.run_id
+            self.recogniser.reset()
+        wait = FRAME_WAIT_S if len(fit.landmarks) else 0.0
+        frame = self.frames.take(h.run_id, h.frame_index, timeout=wait)
+        if frame is None and len(fit.landmarks):
+            self.svc.stats.dropped += 1  # its frame is gone: never received or pushed out
+            self.unclassified.add(h.frame_index, "no frame: it was not received in time")
+            return None
+        try:
+            image = image_of(frame.message) if frame is not None else np.zeros((1, 1), np.uint8)
+            found = recognise(self.recogniser, fit, image)
+        except AAMMismatchError as exc:
+            self.svc.reject("fit", f"not classified: {exc}")
+            self.svc.set_state("degraded", str(exc))
+            return None
+        except (ProtoError, ValueError) as exc:
+            self.svc.reject("fit", f"not classified: {exc}")
+            return None
+        if not found.ok:
+            self.unclassified.add(h.frame_index, found.reason)
+            return None
+        return expression_message(self.svc, fit, found)
 
 
 def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
           opts: ExpressionOptions) -> None:
     """Classify fits until stopped."""
-    recogniser = ExpressionRecogniser(classifier, opts.smooth) if classifier else None
+    stream = None
+    if classifier is not None:
+        frames = svc.recent("frame", max(FRAMES_KEPT, opts.capacity + 16))
+        stream = ExpressionStream(svc, ExpressionRecogniser(classifier, opts.smooth), frames)
     fits = svc.messages("fit", capacity=opts.capacity)
     if classifier is None:
         svc.log.error("%s; running without expressions", why)
@@ -69,20 +160,19 @@ def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
     for got in fits:
         fit = got.message
         assert isinstance(fit, Fit)
-        if recogniser is None or fit.failed:
+        if stream is None:
             continue
-        try:
-            message = expression_message(svc, fit, recogniser)
-        except ValueError as exc:  # an appearance vector of another length or non-finite
-            svc.reject("fit", f"not classified: {exc}")
-            continue
-        svc.publish(message)
+        message = stream.handle(fit)
+        if message is not None:
+            svc.publish(message)
+        if svc.state != "degraded":
+            svc.set_state("running", stream.unclassified.line())
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: ``python -m services.expression.service``."""
-    args = parse_service_args(NAME, "Facial expression of each good fit.", ExpressionOptions,
-                              argv)
+    args = parse_service_args(NAME, "Facial expression of each fit, from the fit and its frame.",
+                              ExpressionOptions, argv)
     init_process(NAME, args.verbose)
     classifier, why = load_classifier(args.options.classifier, args.options.model)
     with Service(NAME, args.bus) as svc:

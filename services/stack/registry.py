@@ -35,7 +35,7 @@ SERVICES: dict[str, ServiceInfo] = {
                     "landmarks: the AAM tracked from frame to frame"),
         ServiceInfo("pose", "services.pose.service", PoseOptions, "head pose of each fit"),
         ServiceInfo("expression", "services.expression.service", ExpressionOptions,
-                    "facial expression of each good fit"),
+                    "facial expression of each fit, from the fit and its frame"),
         ServiceInfo("ar", "services.ar.service", AROptions, "3D glasses drawn at each pose"),
         ServiceInfo("rerun", "services.rerun_logger.service", RerunOptions,
                     "everything into a Rerun recording or viewer"),

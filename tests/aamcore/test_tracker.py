@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from aamcore import FaceResult, FaceTracker
+from aamcore.expression import AAMMismatchError, ExpressionClassifier
 
 
 @pytest.fixture(scope="module")
@@ -17,8 +19,15 @@ def results(model_path: Path, classifier_path: Path, single_face: Path) -> list[
     return list(FaceTracker(model_path, classifier_path).process_video(single_face))
 
 
+def first_expression(classifier_path: Path) -> int:
+    """The first frame of a stream with an expression when every face passes the gate: before
+    it, the stream's reference is learned (one frame in ``stride``, ``min_count`` of them)."""
+    reference = ExpressionClassifier.load(classifier_path).pipeline.reference
+    return (reference["min_count"] - 1) * reference["stride"]
+
+
 def test_every_frame_of_a_face_video_has_landmarks_pose_and_expression(
-    results: list[FaceResult],
+    results: list[FaceResult], classifier_path: Path,
 ) -> None:
     assert [r.frame_index for r in results] == list(range(72))
     assert np.allclose([r.timestamp for r in results], np.arange(72) / 30.0)
@@ -28,9 +37,27 @@ def test_every_frame_of_a_face_video_has_landmarks_pose_and_expression(
         assert r.landmarks.shape == (68, 2) and 0.0 < r.confidence <= 1.0
         assert r.rotation is not None and r.translation_mm is not None and r.pose_reliable
         assert 200 < r.translation_mm[2] < 2000 and abs(r.yaw_deg) < 45
-        assert r.expression in r.expression_scores and len(r.expression_scores) == 7
+    first = first_expression(classifier_path)
+    for r in results:  # no expression while the face's reference is learned, then every frame
+        if r.frame_index < first:
+            assert r.expression is None and r.expression_scores == {}
+            assert r.expression_reason.startswith("learning the face's reference: "), r
+        else:
+            assert r.expression in r.expression_scores and len(r.expression_scores) == 7
+            assert r.expression_reason == ""
     data = json.loads(json.dumps(results[3].to_dict()))
     assert data["frame"] == 3 and len(data["landmarks"]) == 68 and len(data["rotation"]) == 3
+    assert data["expression"] is None and data["expression_reason"].startswith("learning")
+    assert json.loads(json.dumps(results[-1].to_dict()))["expression"] == results[-1].expression
+
+
+def test_a_classifier_of_another_model_is_refused(model_path: Path, classifier_path: Path
+                                                  ) -> None:
+    other = replace(ExpressionClassifier.load(classifier_path), aam_fingerprint="0123456789abcdef")
+    with pytest.raises(AAMMismatchError, match="retrain it for this AAM"):
+        FaceTracker(model_path, other)
+    blank = FaceTracker(model_path, classifier_path).process(np.full((360, 640, 3), 90, np.uint8))
+    assert blank.expression is None and blank.expression_reason == "no face"
 
 
 def test_smoothing_reduces_the_frame_to_frame_jitter(
@@ -52,7 +79,7 @@ def test_a_frame_without_a_face_and_a_bad_video(model_path: Path, tmp_path: Path
     empty = tracker.process(np.full((360, 640, 3), 90, np.uint8), timestamp=1.5)
     assert not empty.success and empty.reason == "no face" and empty.landmarks.shape == (0, 2)
     assert empty.confidence == 0.0 and math.isnan(empty.yaw_deg) and empty.timestamp == 1.5
-    assert empty.to_dict()["rotation"] is None
+    assert empty.to_dict()["rotation"] is None and empty.expression_reason == ""
     bad = tmp_path / "bad.mp4"
     bad.write_bytes(b"not a video")
     with pytest.raises(OSError, match="not a video"):

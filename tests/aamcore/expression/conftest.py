@@ -1,4 +1,5 @@
-"""Real JAFFE data shared by the expression tests: images, face crops, labels, posers."""
+"""Real JAFFE data shared by the expression tests: the faces as the stack fits them, and
+feature matrices of them."""
 
 from __future__ import annotations
 
@@ -7,20 +8,29 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aamcore.expression.benchmark import PixelData, load_pixel_data
+from aamcore.expression.analysis import observe
+from aamcore.expression.spec import FeatureConfig
+from aamcore.expression.training import JaffeFaces, jaffe_faces
+from tests.aamcore.expression.feature_sets import FeatureSet
 
 FIVE_POSERS = ["KA", "KL", "KM", "KR", "MK"]
 
 
 @pytest.fixture(scope="session")
-def jaffe_pixels(jaffe_dir: Path) -> PixelData:
-    """Face-crop pixels (213, 2304) of every JAFFE image, with labels and posers."""
-    data = load_pixel_data(jaffe_dir)
-    assert not data.skipped, data.skipped
-    return data
+def jaffe(model_path: Path, jaffe_dir: Path) -> JaffeFaces:
+    """Every JAFFE face (213) fitted by the small test model as the stack fits a frame."""
+    return jaffe_faces(model_path, jaffe_dir)
 
 
 @pytest.fixture(scope="session")
-def five_posers(jaffe_pixels: PixelData) -> PixelData:
+def jaffe_features(jaffe: JaffeFaces) -> FeatureSet:
+    """Absolute HOG patch features (213, 1836) of every JAFFE face, with labels and posers."""
+    observed = observe(jaffe.observations, FeatureConfig(blocks=("hog",)))
+    assert observed.ok.all(), [p for p in observed.problems if p]
+    return FeatureSet(observed.vectors(("hog",)), jaffe.labels, jaffe.posers)
+
+
+@pytest.fixture(scope="session")
+def five_posers(jaffe_features: FeatureSet) -> FeatureSet:
     """The samples of five posers (about 105)."""
-    return jaffe_pixels.subset(np.isin(jaffe_pixels.posers, FIVE_POSERS))
+    return jaffe_features.subset(np.isin(jaffe_features.posers, FIVE_POSERS))

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 from sklearn.decomposition import PCA
 
-from aamcore.expression.benchmark import PixelData
 from aamcore.expression.concentration import (
     choose_n_components,
     cluster_table,
     concentration_metric,
     concentration_study,
 )
+from tests.aamcore.expression.feature_sets import FeatureSet
 
 
 def test_ideal_table_9_1_scores_n_classes_times_n_subjects() -> None:
@@ -35,16 +35,16 @@ def test_cluster_table_counts_class_cluster_pairs() -> None:
     np.testing.assert_array_equal(cluster_table(y_idx, clusters, 3), expected)
 
 
-def test_study_on_real_features(jaffe_pixels: PixelData) -> None:
-    X = PCA(0.95, svd_solver="full").fit_transform(jaffe_pixels.pixels)
-    study = concentration_study(X, jaffe_pixels.labels, n_trials=6, random_state=3)
+def test_study_on_real_features(jaffe_features: FeatureSet) -> None:
+    X = PCA(0.95, svd_solver="full").fit_transform(jaffe_features.features)
+    study = concentration_study(X, jaffe_features.labels, n_trials=6, random_state=3)
     np.testing.assert_array_equal(study.candidates, np.arange(1, 7))
     assert study.metrics.shape == (6, 6)
     # Each class row sums to its size (about 30), so a row scores at most its size.
     assert np.all(study.metrics > 0) and np.all(study.metrics <= len(X))
     assert study.histogram().sum() == 6
     assert study.best in study.best_per_trial()
-    assert choose_n_components(X, jaffe_pixels.labels, n_trials=6, random_state=3) == study.best
+    assert choose_n_components(X, jaffe_features.labels, n_trials=6, random_state=3) == study.best
 
 
 def test_separable_classes_concentrate_on_the_discriminant_direction() -> None:

@@ -7,14 +7,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from aamcore.expression.benchmark import PixelData
 from aamcore.expression.hypersphere import HypersphereMap, to_unit_sphere
+from tests.aamcore.expression.feature_sets import FeatureSet
 
 
-def test_real_features_map_to_unit_norms(five_posers: PixelData) -> None:
+def test_real_features_map_to_unit_norms(five_posers: FeatureSet) -> None:
     train = five_posers.posers != "KA"
-    sphere = HypersphereMap().fit(five_posers.pixels[train])
-    mapped = sphere.transform(five_posers.pixels[~train])
+    sphere = HypersphereMap().fit(five_posers.features[train])
+    mapped = sphere.transform(five_posers.features[~train])
     np.testing.assert_allclose(np.linalg.norm(mapped, axis=1), 1.0, atol=1e-12)
 
 

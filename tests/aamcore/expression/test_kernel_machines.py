@@ -7,7 +7,6 @@ import pytest
 from sklearn.decomposition import PCA
 from sklearn.svm import SVC
 
-from aamcore.expression.benchmark import PixelData
 from aamcore.expression.hypersphere import HypersphereMap
 from aamcore.expression.kernel_machines import (
     REST,
@@ -15,14 +14,15 @@ from aamcore.expression.kernel_machines import (
     fit_one_against_all,
     fit_pairwise,
 )
+from tests.aamcore.expression.feature_sets import FeatureSet
 
 Features = tuple[np.ndarray, np.ndarray]
 
 
 @pytest.fixture(scope="module")
-def unit_features(five_posers: PixelData) -> Features:
+def unit_features(five_posers: FeatureSet) -> Features:
     """Unit-norm PCA features (n, d) and class indices (n,) of five posers."""
-    X = PCA(0.95, svd_solver="full").fit_transform(five_posers.pixels)
+    X = PCA(0.95, svd_solver="full").fit_transform(five_posers.features)
     _, y_idx = np.unique(five_posers.labels, return_inverse=True)
     return HypersphereMap().fit_transform(X), y_idx
 

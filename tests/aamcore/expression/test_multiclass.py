@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from sklearn.decomposition import PCA
 
-from aamcore.expression.benchmark import PixelData
 from aamcore.expression.multiclass import dag_scores, ovo_scores, pair_index
 from aamcore.expression.svm import SVMExpressionClassifier
+from tests.aamcore.expression.feature_sets import FeatureSet
 
 
 def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -51,11 +51,11 @@ Fitted = tuple[SVMExpressionClassifier, SVMExpressionClassifier, np.ndarray, np.
 
 
 @pytest.fixture(scope="module")
-def fitted(five_posers: PixelData) -> Fitted:
+def fitted(five_posers: FeatureSet) -> Fitted:
     """OvO and DAG fitted on four posers, with features, labels and the training mask."""
     train = five_posers.posers != "KR"
-    pca = PCA(0.95, svd_solver="full").fit(five_posers.pixels[train])
-    X = pca.transform(five_posers.pixels)
+    pca = PCA(0.95, svd_solver="full").fit(five_posers.features[train])
+    X = pca.transform(five_posers.features)
     y = five_posers.labels
     ovo = SVMExpressionClassifier("ovo", C=8.0, gamma=0.125).fit(X[train], y[train])
     dag = SVMExpressionClassifier("dag", C=8.0, gamma=0.125).fit(X[train], y[train])

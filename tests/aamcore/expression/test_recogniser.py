@@ -1,4 +1,4 @@
-"""aamcore.expression.recogniser: classifying a stream of fits, scores smoothed over frames."""
+"""aamcore.expression.recogniser: a stream of fits and frames, warm-up, smoothing, bad fits."""
 
 from __future__ import annotations
 
@@ -7,8 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aamcore.expression import ExpressionClassifier
+from aamcore.expression import AAMMismatchError, ExpressionClassifier
 from aamcore.expression.recogniser import ExpressionRecogniser, Smoother
+from aamcore.expression.training import JaffeFaces
+from tests.aamcore.expression.synthetic_faces import expression_observation, stream_classifier
 
 
 def test_smoother_averages_consecutive_frames_and_restarts_after_a_gap() -> None:
@@ -16,22 +18,68 @@ def test_smoother_averages_consecutive_frames_and_restarts_after_a_gap() -> None
     assert smoother.add(0, np.array([1.0, 0.0]))[1] is False
     mean, smoothed = smoother.add(1, np.array([0.0, 1.0]))
     assert smoothed and np.allclose(mean, [0.5, 0.5])
-    mean, smoothed = smoother.add(5, np.array([0.0, 3.0]))  # frames 2-4 had no good fit
+    mean, smoothed = smoother.add(5, np.array([0.0, 3.0]))  # frames 2-4 were not classified
     assert not smoothed and np.allclose(mean, [0.0, 3.0])
     with pytest.raises(ValueError):
         Smoother(0)
 
 
-def test_a_recogniser_smooths_consecutive_frames_only(classifier_path: Path) -> None:
+def _recognise(recogniser: ExpressionRecogniser, index: int, kind: str, person: float = 0.05):
+    obs = expression_observation(kind, person)
+    return recogniser.recognise(index, obs.image, obs.landmarks, obs.appearance)
+
+
+def test_no_label_while_the_reference_is_learned_then_smoothed_scores() -> None:
+    classifier = stream_classifier(min_count=3)
+    recogniser = ExpressionRecogniser(classifier, smooth=2)
+    first = _recognise(recogniser, 0, "NE")
+    assert not first.ok and first.scores is None and first.class_names == classifier.class_names
+    assert first.reason == "learning the face's reference: 1 of 3 samples"
+    assert not _recognise(recogniser, 1, "HA").ok
+    third = _recognise(recogniser, 2, "SU")
+    assert third.ok and third.label == "SU" and not third.smoothed and third.reason == ""
+    fourth = _recognise(recogniser, 3, "SU")
+    assert fourth.smoothed and fourth.label == "SU"
+    raw = recogniser.pipeline.process(expression_observation("SU", 0.05)).scores
+    assert raw is not None and fourth.scores is not None and fourth.scores.shape == raw.shape
+
+
+def test_a_frame_index_that_goes_back_starts_the_stream_afresh() -> None:
+    recogniser = ExpressionRecogniser(stream_classifier(min_count=2))
+    _recognise(recogniser, 10, "NE")
+    assert _recognise(recogniser, 11, "HA").ok
+    again = _recognise(recogniser, 0, "HA")  # a new run of the source
+    assert not again.ok and again.reason.startswith("learning the face's reference: 1 of 2")
+
+
+def test_no_face_and_fits_of_another_model() -> None:
+    recogniser = ExpressionRecogniser(stream_classifier())
+    image = np.zeros((240, 320), np.uint8)
+    none = recogniser.recognise(0, image, None, None, True, "no face")
+    assert not none.ok and none.reason == "no face"
+    obs = expression_observation("NE", 0.0)
+    with pytest.raises(AAMMismatchError, match="not on imm58 fits with 58 landmarks"):
+        recogniser.recognise(1, obs.image, np.zeros((58, 2)), obs.appearance, scheme="imm58")
+    with pytest.raises(AAMMismatchError, match="this fit has 7"):
+        recogniser.recognise(2, obs.image, obs.landmarks, np.zeros(7))
+
+
+def test_a_stream_of_one_jaffe_posers_faces_is_recognised(
+    classifier_path: Path, jaffe: JaffeFaces
+) -> None:
     classifier = ExpressionClassifier.load(classifier_path)
-    recogniser = ExpressionRecogniser(classifier, smooth=3)
-    rng = np.random.default_rng(0)
-    c = [rng.normal(0, 0.5, classifier.feature_dim) for _ in range(3)]
-    first = recogniser.recognise(0, c[0])
-    assert not first.smoothed and first.label in classifier.class_names
-    second = recogniser.recognise(1, c[1])
-    expected = (classifier.classify(c[0])[1] + classifier.classify(c[1])[1]) / 2
-    assert second.smoothed and np.allclose(second.scores, expected)
-    assert not recogniser.recognise(7, c[2]).smoothed  # a gap: the average starts again
-    with pytest.raises(ValueError):
-        recogniser.recognise(8, np.zeros(classifier.feature_dim + 1))
+    recogniser = ExpressionRecogniser(classifier)
+    reference = classifier.pipeline.reference
+    warm_up = (reference["min_count"] - 1) * reference["stride"] + 1  # frames until classified
+    faces = np.tile(np.flatnonzero(jaffe.posers == "KA"), 4)
+    right = total = 0
+    for k, i in enumerate(faces):
+        obs = jaffe.observations[i]
+        found = recogniser.recognise(k, obs.image, obs.landmarks, obs.appearance, obs.fit_failed)
+        if k < warm_up - 1:
+            assert not found.ok and found.reason.startswith("learning the face's reference")
+            continue
+        assert found.ok, found.reason
+        right += found.label == jaffe.labels[i]
+        total += 1
+    assert total == len(faces) - warm_up + 1 and right / total > 0.8  # training faces

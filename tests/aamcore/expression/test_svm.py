@@ -7,9 +7,9 @@ import pytest
 from sklearn.decomposition import PCA
 from sklearn.svm import SVC
 
-from aamcore.expression.benchmark import PixelData
 from aamcore.expression.hypersphere import HypersphereMap
 from aamcore.expression.svm import SVMExpressionClassifier, SVMModel, tune_svm
+from tests.aamcore.expression.feature_sets import FeatureSet
 
 SMALL_C = 2.0 ** np.array([1, 5, 9])
 SMALL_GAMMA = 2.0 ** np.array([-7, -3, 1])
@@ -19,11 +19,11 @@ Split = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
 @pytest.fixture(scope="module")
-def split(five_posers: PixelData) -> Split:
+def split(five_posers: FeatureSet) -> Split:
     """PCA features fitted on four posers; poser MK held out."""
     train = five_posers.posers != "MK"
-    pca = PCA(0.95, svd_solver="full").fit(five_posers.pixels[train])
-    X = pca.transform(five_posers.pixels)
+    pca = PCA(0.95, svd_solver="full").fit(five_posers.features[train])
+    X = pca.transform(five_posers.features)
     return (
         X[train],
         five_posers.labels[train],

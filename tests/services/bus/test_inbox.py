@@ -6,6 +6,7 @@ All on a real loopback Zenoh bus: a probe publishes, a sink's holders receive.
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from collections.abc import Callable
 
@@ -132,3 +133,24 @@ def test_latest_and_recent_keep_what_they_promise(
         assert recent.take(RUN, 0) is None  # pushed out
         assert recent.take(RUN, 3).message.header.frame_index == 3
         assert recent.take("run-other", 2) is None
+
+
+def test_recent_waits_for_a_message_that_is_still_on_its_way(
+    peer: Service, sink_bus: BusOptions
+) -> None:
+    with Service("sink", sink_bus, handle_signals=False) as sink:
+        recent = sink.recent("frame", 3)
+        sink.ready()
+        assert peer.wait_for_alive(["sink"], 10) == []
+        started = time.monotonic()
+        assert recent.take(RUN, 7, timeout=0.2) is None  # never sent: waited for, then None
+        assert time.monotonic() - started >= 0.2
+        later = threading.Timer(0.3, lambda: peer.put(peer.key("frame"), frame(peer, 8),
+                                                      MUST_ARRIVE))
+        later.start()
+        got = recent.take(RUN, 8, timeout=20.0)  # sent while waiting
+        later.join()
+        assert got is not None and got.message.header.frame_index == 8
+        recent.wake()
+        started = time.monotonic()
+        assert recent.take(RUN, 9, timeout=20.0) is None and time.monotonic() - started < 1.0

@@ -8,11 +8,12 @@ from pathlib import Path
 
 import pytest
 
+from aamcore.expression.variants import DEPLOYED
 from services.cli import build_parser, main
 
 
 def test_eval_expression_json(
-    capsys: pytest.CaptureFixture[str], jaffe_dir: Path, tmp_path: Path
+    capsys: pytest.CaptureFixture[str], jaffe_dir: Path, model_path: Path, tmp_path: Path
 ) -> None:
     data = tmp_path / "jaffe3"  # three posers keep the run short
     data.mkdir()
@@ -20,82 +21,33 @@ def test_eval_expression_json(
         for image in jaffe_dir.glob(f"{poser}.*.tiff"):
             shutil.copy(image, data / image.name)
     out = tmp_path / "out"
-    argv = [
-        "eval",
-        "expression",
-        "--json",
-        "--variances",
-        "90",
-        "--classes",
-        "5",
-        "--trials",
-        "2",
-        "--grid",
-        "coarse",
-        "--data",
-        str(data),
-        "--out",
-        str(out),
-        "--features",
-        "pixels",
-    ]
+    argv = ["eval", "expression", "--json", "--only", "deployed", "--only", "SVM OvA (thesis)",
+            "--classes", "5", "--trials", "2", "--grid", "coarse", "--data", str(data),
+            "--fit-model", str(model_path), "--out", str(out)]
     code = main(argv)
     report = json.loads(capsys.readouterr().out)
-    five = report["class_sets"]["5"]
-    assert code == (0 if report["classify_passed"] and five["passed"] else 1)
-    assert report["features"] == "pixel PCA baseline"
-    assert five["best"]["variance"] == 0.9
-    assert {r["classifier"] for r in five["runs"]} == {
-        "LDA+Mahalanobis",
-        "SVM OvA",
-        "SVM OvO",
-        "SVM DAG",
-    }
-    assert all(r["n_samples"] == 48 for r in five["runs"])
-    assert (out / "results.json").is_file()
-    assert len(list(out.glob("*.png"))) == 4
+    assert code == (0 if report["targets_met"] else 1)
+    assert report["n_faces"] == 67 and report["model"] == model_path.name
+    rows = report["rows"]
+    assert set(rows) == {DEPLOYED.name, "c, absolute, SVM OvA (thesis)"}
+    five = sum(image.name[3:5] not in ("SA", "AN") for image in data.iterdir())
+    assert all(r["5"]["n_samples"] == five for r in rows.values())  # every face of 5 classes
+    assert rows[DEPLOYED.name]["5"]["overall_rate"] > 0.5
+    assert (out / "results.json").is_file() and len(list(out.glob("*.png"))) == 2
 
 
-@pytest.mark.parametrize(
-    ("option", "value"),
-    [("--variances", "0"), ("--variances", "abc"), ("--classes", "6"), ("--features", "hog")],
-)
+@pytest.mark.parametrize(("option", "value"), [("--classes", "6"), ("--grid", "fine"),
+                                               ("--features", "pixels")])
 def test_bad_options_are_refused(option: str, value: str) -> None:
     with pytest.raises(SystemExit):
         build_parser().parse_args(["eval", "expression", option, value])
 
 
-def test_options_are_parsed() -> None:
+def test_options_are_parsed_and_unknown_rows_refused(capsys: pytest.CaptureFixture[str]
+                                                     ) -> None:
     parser = build_parser()
-    args = parser.parse_args(["eval", "expression", "--variances", "95,99.5", "--classes", "7"])
-    assert args.variances == [0.95, 0.995] and args.classes == [7]
+    args = parser.parse_args(["eval", "expression", "--only", "hog", "--classes", "7"])
+    assert args.only == ["hog"] and args.classes == [7] and args.grid == "full"
     assert args.func.__module__ == "services.cli.expression_cmd"
-
-
-def test_eval_expression_on_aam_features(jaffe_dir, lfpw_fit_model_path, tmp_path, capsys) -> None:
-    data = tmp_path / "jaffe"
-    data.mkdir()
-    for poser in ("KA", "KL", "KM"):
-        for image in jaffe_dir.glob(f"{poser}.*.tiff"):
-            shutil.copy(image, data / image.name)
-    argv = [
-        "eval",
-        "expression",
-        "--json",
-        "--variances",
-        "95",
-        "--classes",
-        "5",
-        "--trials",
-        "2",
-        "--grid",
-        "coarse",
-        "--data",
-        str(data),
-        "--fit-model",
-        str(lfpw_fit_model_path),
-    ]
-    main(argv)
-    report = json.loads(capsys.readouterr().out)
-    assert report["features"].startswith("AAM appearance")
-    assert report["class_sets"]["5"]["best"]["overall_rate"] > 0.3
+    assert main(["eval", "expression", "--only", "lbp"]) == 2
+    assert "no variant matches ['lbp']" in capsys.readouterr().err

@@ -1,40 +1,64 @@
-"""services.expression.service: classifying fits, smoothing, and running without a classifier."""
+"""services.expression.service: fits classified with their frames, as the library does; the
+reasons counted; running without a classifier or with fits of another model."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from aamcore.config import REPO_ROOT
-from aamcore.detection.haar import HaarFaceDetector
+from aamcore.expression import ExpressionClassifier
 from aamcore.expression.recogniser import ExpressionRecogniser
-from aamcore.fitting.fitter import Fitter
+from aamcore.expression.training import stack_observations
 from aamcore.fitting.model import FittingModel
 from aamcore.io.jaffe import load_jaffe
-from proto import Fit, Header
-from proto.keys import status_key
+from proto import Fit, Frame, Header, encode
+from proto.keys import status_key, topic_key
 from services.bus.connection import BusOptions
 from services.bus.options import options_argv
+from services.bus.qos import MUST_ARRIVE
 from services.bus.session import Service
-from services.expression.service import expression_message, load_classifier
+from services.expression.service import (
+    Unclassified,
+    expression_message,
+    load_classifier,
+    recognise,
+)
+
+Stream = list[tuple[str, Frame, Fit]]
 
 
-def happy_fit(model_path: Path, data_dir: Path, index: int) -> Fit:
-    """A fit of the AAM to a happy JAFFE face, as the fitter would publish it."""
-    sample = next(s for s in load_jaffe(data_dir / "jaffe").samples if s.label == "HA")
-    image = sample.load_image()
-    box = HaarFaceDetector().detect(image)[0]
-    result = Fitter(FittingModel.load(model_path)).fit_box(image, box)
-    sim = result.similarity
-    return Fit(Header.now("cam0", index, "fitter"), "ibug68", result.points.astype(np.float32),
-               result.c.astype(np.float32), np.array([sim.a, sim.b, sim.tx, sim.ty], np.float32),
-               image.shape[1], image.shape[0], result.error, 5, True, False, "", "cpu",
-               result.confidence)
+def fit_of(frame: Frame, landmarks: np.ndarray, appearance: np.ndarray, failed: bool = False,
+           reason: str = "", scheme: str = "ibug68") -> Fit:
+    """The ``Fit`` the fitter would publish for ``frame``."""
+    h = frame.header
+    header = Header.now(h.stream_id, h.frame_index, "fitter", h.capture_time_ns, h.run_id)
+    return Fit(header, scheme, landmarks.astype(np.float32), appearance.astype(np.float32),
+               np.zeros(4, np.float32), frame.width, frame.height, 0.0, 5, not failed, failed,
+               reason, "cpu", 0.0 if failed else 0.9)
+
+
+def poser_stream(model_path: Path, jaffe_dir: Path, poser: str, repeats: int,
+                 stream: str = "cam0", run: str = "") -> Stream:
+    """Class, frame and fit of one poser's JAFFE faces, ``repeats`` times over as consecutive
+    frames of one stream, fitted as the stack fits them."""
+    samples = [s for s in load_jaffe(jaffe_dir).samples if s.poser == poser]
+    observed = stack_observations(FittingModel.load(model_path), [s.load_image()
+                                                                  for s in samples])
+    out = []
+    for i, (sample, obs) in enumerate(list(zip(samples, observed, strict=True)) * repeats):
+        frame = Frame.from_array(Header.now(stream, i, "source", run_id=run), obs.image)
+        out.append((sample.label, frame, fit_of(frame, obs.landmarks, obs.appearance,
+                                                obs.fit_failed, obs.fit_reason)))
+    return out
 
 
 def test_load_classifier_says_why_there_is_none(
@@ -47,38 +71,155 @@ def test_load_classifier_says_why_there_is_none(
     other.write_bytes(model_path.read_bytes() + b"\0")
     none, why = load_classifier(str(classifier_path), str(other))
     assert none is None and "retrain it for this AAM" in why
+    with np.load(classifier_path, allow_pickle=False) as archive:
+        arrays = {name: archive[name] for name in archive.files}
+    header = json.loads(arrays["header"].tobytes()) | {"format_version": 1}
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), np.uint8)
+    np.savez(tmp_path / "format1.npz", **arrays)
+    none, why = load_classifier(str(tmp_path / "format1.npz"), None)
+    assert none is None and "format version 1" in why and "retrain it" in why
     classifier, why = load_classifier(str(classifier_path), str(model_path))
     assert classifier is not None and why == ""
 
 
-def test_a_happy_face_is_classified(
-    model_path: Path, classifier_path: Path, data_dir: Path
+def test_a_stream_is_classified_once_its_reference_is_learned(
+    model_path: Path, classifier_path: Path, jaffe_dir: Path
 ) -> None:
     classifier, _ = load_classifier(str(classifier_path), str(model_path))
-    fit = happy_fit(model_path, data_dir, 4)
+    assert classifier is not None
+    recogniser = ExpressionRecogniser(classifier)
+    reference = classifier.pipeline.reference
+    first = (reference["min_count"] - 1) * reference["stride"]  # the first frame classified
+    right = total = 0
     with Service("expression", BusOptions("cam0"), handle_signals=False) as svc:
-        message = expression_message(svc, fit, ExpressionRecogniser(classifier))
-    assert message.header.frame_index == 4 and not message.smoothed
-    assert message.class_names == classifier.class_names and len(message.scores) == 7
-    assert message.label == "HA"  # a training face: the classifier has seen it
+        stream = poser_stream(model_path, jaffe_dir, "KA", 3)
+        for label, frame, fit in stream:
+            found = recognise(recogniser, fit, frame.image)
+            if fit.header.frame_index < first:
+                assert not found.ok and found.reason.startswith("learning the face's reference")
+                continue
+            assert found.ok, found.reason
+            message = expression_message(svc, fit, found)
+            assert message.header.frame_index == fit.header.frame_index
+            assert message.class_names == classifier.class_names and len(message.scores) == 7
+            assert message.scores.dtype == np.float32 and not message.smoothed
+            right += message.label == label
+            total += 1
+    assert total == len(stream) - first and right / total > 0.8  # training faces
 
 
+def test_the_status_line_counts_the_reasons() -> None:
+    counts = Unclassified()
+    assert counts.line() == "every fit with an expression"
+    counts.add(3, "no face")
+    counts.add(4, "face in profile: turned about 50 degrees (at most 35)")
+    counts.add(5, "no face")
+    assert counts.line() == ("3 fits without expression: 2 no face, 1 face in profile; "
+                             "last frame 5: no face")
+
+
+def _start(bus: BusOptions, *args: str) -> subprocess.Popen[str]:
+    env = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO_ROOT)}
+    return subprocess.Popen([sys.executable, "-m", "services", "service", "expression",
+                             *options_argv(bus), *args], env=env, cwd=REPO_ROOT,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def _stop(proc: subprocess.Popen[str]) -> str:
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=15)
+    assert proc.returncode == 0, err
+    return err
+
+
+def _expected(classifier: ExpressionClassifier, stream: Stream) -> dict[int, str]:
+    """What the library's recogniser gives on the same fits and frames."""
+    recogniser = ExpressionRecogniser(classifier)
+    labels = {}
+    for _, frame, fit in stream:
+        found = recognise(recogniser, fit, frame.image)
+        if found.ok:
+            labels[fit.header.frame_index] = found.label
+    return labels
+
+
+def test_the_service_pairs_each_fit_with_its_frame_and_counts_what_it_cannot_classify(
+    peer: Service, bus_pair: tuple[BusOptions, BusOptions], model_path: Path,
+    classifier_path: Path, jaffe_dir: Path,
+) -> None:
+    stream = poser_stream(model_path, jaffe_dir, "KL", 3, peer.stream)
+    _, frame, fit = stream[30]  # a frame without a face in the middle of the stream
+    stream[30] = ("", frame, fit_of(frame, np.zeros((0, 2)), np.zeros(0), True, "no face"))
+    expected = _expected(ExpressionClassifier.load(classifier_path), stream)
+    expressions = peer.inbox(topic_key(peer.stream, "expression"), capacity=256,
+                             kind="expression")
+    statuses = peer.inbox(status_key(peer.stream, "expression"), capacity=64, kind="status")
+    proc = _start(bus_pair[1], "--classifier", str(classifier_path), "--model", str(model_path))
+    try:
+        assert peer.wait_for_alive(["expression"], 30) == []
+        time.sleep(0.5)  # the service's subscribers meet the peer's publishers
+        for k, (_, frame, fit) in enumerate(stream):
+            first, second = (fit, frame) if k % 7 == 3 else (frame, fit)  # a fit may come first
+            for message in (first, second):
+                peer.put(message.key(), encode(message), MUST_ARRIVE)
+            time.sleep(0.01)
+        got: dict[int, object] = {}
+        deadline = time.monotonic() + 30
+        while len(got) < len(expected) and time.monotonic() < deadline:
+            item = expressions.get(0.5)
+            if item is not None:
+                got[item.message.header.frame_index] = item.message
+        time.sleep(1.5)  # one more status period
+        last = None
+        while (item := statuses.get(0.1)) is not None:
+            last = item.message
+    finally:
+        _stop(proc)
+    assert {k: m.label for k, m in got.items()} == expected
+    assert last is not None and last.state == "running", last
+    assert "1 no face" in last.message and "learning the face's reference" in last.message
+
+
+def test_fits_of_another_landmark_scheme_make_the_service_degraded(
+    peer: Service, bus_pair: tuple[BusOptions, BusOptions], model_path: Path,
+    classifier_path: Path, jaffe_dir: Path,
+) -> None:
+    _, frame, _ = poser_stream(model_path, jaffe_dir, "KA", 1, peer.stream)[0]
+    statuses = peer.inbox(status_key(peer.stream, "expression"), capacity=64, kind="status")
+    proc = _start(bus_pair[1], "--classifier", str(classifier_path))
+    try:
+        assert peer.wait_for_alive(["expression"], 30) == []
+        time.sleep(0.5)
+        for message in (frame, fit_of(frame, np.full((58, 2), 100.0), np.zeros(3),
+                                      scheme="imm58")):
+            peer.put(message.key(), encode(message), MUST_ARRIVE)
+        deadline = time.monotonic() + 10
+        last = None
+        while time.monotonic() < deadline and (last is None or last.state != "degraded"):
+            item = statuses.get(0.5)
+            last = item.message if item is not None else last
+    finally:
+        err = _stop(proc)
+    assert last is not None and last.state == "degraded", last
+    assert "not on imm58 fits with 58 landmarks" in last.message and last.rejected == 1
+    assert "rejected input from fit" in err
+
+
+@pytest.mark.parametrize("classifier", [None, "missing.npz"])
 def test_without_a_classifier_the_service_runs_degraded_and_says_why(
-    peer: Service, bus_pair: tuple[BusOptions, BusOptions]
+    peer: Service, bus_pair: tuple[BusOptions, BusOptions], classifier: str | None,
+    tmp_path: Path,
 ) -> None:
     statuses = peer.inbox(status_key(peer.stream, "expression"), capacity=16, kind="status")
-    env = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO_ROOT)}
-    proc = subprocess.Popen([sys.executable, "-m", "services", "service", "expression",
-                             *options_argv(bus_pair[1])], env=env, cwd=REPO_ROOT,
-                            stderr=subprocess.PIPE, text=True)
+    args = [] if classifier is None else ["--classifier", str(tmp_path / classifier)]
+    proc = _start(bus_pair[1], *args)
+    why = "no expression classifier given" if classifier is None else "classifier file not found"
     try:
         assert peer.wait_for_alive(["expression"], 30) == []
         got = statuses.get(10.0)
         assert got is not None
         assert got.message.state == "degraded"
-        assert "no expression classifier given" in got.message.message
+        assert why in got.message.message
     finally:
-        proc.send_signal(signal.SIGTERM)
-        _, err = proc.communicate(timeout=15)
-    assert proc.returncode == 0
-    assert "no expression classifier given" in err
+        err = _stop(proc)
+    assert why in err

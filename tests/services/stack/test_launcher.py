@@ -63,6 +63,15 @@ def assert_accounted(summary: dict, service: str = "fitter") -> None:
     assert s["frames_out"] == s["frames_in"] - s["rejected"] or s["rejected"] == 0
 
 
+def first_expression(classifier_path: Path) -> int:
+    """The first frame of a stream with an expression when every face passes the gate: before
+    it, the stream's reference is learned (one frame in ``stride``, ``min_count`` of them)."""
+    from aamcore.expression import ExpressionClassifier
+
+    reference = ExpressionClassifier.load(classifier_path).pipeline.reference
+    return (reference["min_count"] - 1) * reference["stride"]
+
+
 def rrd_entities(path: Path) -> set[str]:
     from rerun.chunk import RrdReader
 
@@ -83,6 +92,7 @@ def wait_for(condition: Callable[[], bool], what: str, timeout: float = 60.0) ->
 
 def test_single_face_gpu_warp_every_frame_gets_its_results(
     single_face: Path, tmp_path: Path, stack_options: Callable[..., StackOptions],
+    classifier_path: Path,
 ) -> None:
     rrd, rec = tmp_path / "run.rrd", tmp_path / "run.rec"
     opts = stack_options(single_face, warp="gpu", record=str(rec), rrd=str(rrd))
@@ -96,7 +106,9 @@ def test_single_face_gpu_warp_every_frame_gets_its_results(
     reasons = sorted({f.failure_reason for f in fits.values() if f.failed})
     assert all(not f.failed for f in fits.values()), f"failed fits: {reasons}"
     assert sorted(by_frame(messages, "pose")) == list(range(72))
-    assert sorted(by_frame(messages, "expression")) == list(range(72))
+    # No expression while the expression service learns the face's reference, then every frame.
+    first = first_expression(classifier_path)
+    assert sorted(by_frame(messages, "expression")) == list(range(first, 72))
     assert all(p.reliable for p in by_frame(messages, "pose").values())
     assert summary["messages"]["overlay"] > 0
     assert summary["services"]["ar"]["frames_out"] == summary["messages"]["overlay"]
@@ -114,6 +126,7 @@ def test_single_face_gpu_warp_every_frame_gets_its_results(
 
 def test_single_face_cpu_warp_with_jpeg_frames(
     single_face: Path, tmp_path: Path, stack_options: Callable[..., StackOptions],
+    classifier_path: Path,
 ) -> None:
     rec = tmp_path / "run.rec"
     _, summary = run_stack(stack_options(single_face, warp="cpu", jpeg=90, ar=False,
@@ -121,7 +134,8 @@ def test_single_face_cpu_warp_with_jpeg_frames(
     fits = by_frame(load_messages(rec, ["fit"]), "fit")
     assert sorted(fits) == list(range(72))
     assert {f.warp_path for f in fits.values()} == {"cpu"}
-    assert summary["frames_with"]["pose"] == summary["frames_with"]["expression"] == 72
+    assert summary["frames_with"]["pose"] == 72
+    assert summary["frames_with"]["expression"] == 72 - first_expression(classifier_path)
     assert_accounted(summary)
 
 
@@ -137,6 +151,8 @@ def test_no_face_video_every_frame_is_answered_as_no_face(
     assert all(f.failed and f.failure_reason == "no face" and len(f.landmarks) == 0
                for f in fits.values())
     assert summary["frames_with"]["pose"] == 0 and summary["frames_with"]["expression"] == 0
+    assert f"{total} fits without expression: {total} no face" in (
+        summary["services"]["expression"]["message"])
     assert summary["services"]["detector"]["frames_out"] >= total  # a query per frame at least
     assert all(code == 0 for code in stack.exit_codes.values()), stack.exit_codes
 
@@ -217,9 +233,10 @@ def test_a_flood_of_invalid_and_foreign_messages_displaces_no_real_frame(
     assert summary["frames_with"]["fit"] == total  # no real frame displaced or lost
     assert fitter["dropped"] == 0 and fitter["lost"] == 0, fitter
     assert fitter["rejected"] == INVALID // 2 and fitter["ignored"] == FOREIGN, fitter
-    for name in ("pose", "expression"):
+    # The expression service takes the frames too: it rejects the invalid frames as well.
+    for name, invalid in (("pose", INVALID // 2 + 1), ("expression", INVALID + 1)):
         s = summary["services"][name]
-        assert s["rejected"] == INVALID // 2 + 1 and s["dropped"] == 0, (name, s)
+        assert s["rejected"] == invalid and s["dropped"] == 0, (name, s)
         assert s["frames_in"] == total, (name, s)
     assert all(code == 0 for code in stack.exit_codes.values()), stack.exit_codes
     recording = read_recording(rec)  # images are screened before they are recorded

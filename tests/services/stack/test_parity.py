@@ -1,4 +1,5 @@
-"""The Python API and the stack give the same landmarks and poses on the same frames."""
+"""The Python API and the stack give the same landmarks, poses and expressions on the same
+frames."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from aamcore import FaceTracker
+from aamcore.expression import ExpressionClassifier
 from aamcore.io.video import video_frames
 from services.stack.launcher import Stack
 from services.stack.options import StackOptions
@@ -38,8 +40,12 @@ def test_library_and_stack_agree_on_every_frame(
             np.testing.assert_allclose(result.rotation, pose.rotation, atol=1e-5)
             np.testing.assert_allclose(result.translation_mm, pose.translation_mm, atol=1e-2)
             assert result.pose_reliable == pose.reliable
+        # The same frames without expression (the reference being learned, a face refused).
+        assert (result.expression is not None) == (k in expressions), (k, result)
         if k in expressions:
             assert result.expression == expressions[k].label
-            np.testing.assert_allclose(
+            np.testing.assert_allclose(  # the message's scores are float32
                 [result.expression_scores[c] for c in expressions[k].class_names],
-                expressions[k].scores, atol=1e-5)
+                expressions[k].scores, rtol=1e-6, atol=1e-5)
+    reference = ExpressionClassifier.load(classifier_path).pipeline.reference
+    assert len(expressions) >= 72 - (reference["min_count"] - 1) * reference["stride"] - 3

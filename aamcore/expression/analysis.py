@@ -1,0 +1,183 @@
+"""The quality gate and the feature blocks of one face, as every user computes them.
+
+:func:`analyse_face` is the one function that turns a
+:class:`~aamcore.expression.crop.FaceObservation` into feature blocks: the
+expression pipeline of the library and the service calls it per frame
+(:class:`~aamcore.expression.pipeline.ExpressionPipeline`), the training and
+the benchmark call it per JAFFE face (:func:`observe`). The gate and the
+features share one crop and one HOG computation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from aamcore.expression.crop import (
+    FaceFeatureError,
+    FaceObservation,
+    aligned_face,
+    canonical_shape,
+    check_landmarks,
+)
+from aamcore.expression.hog_patches import hog_block, mirror_symmetry
+from aamcore.expression.quality import landmark_problem, symmetry_problem
+from aamcore.expression.spec import FeatureConfig, QualityLimits
+
+Blocks = dict[str, np.ndarray]
+
+
+def analyse_face(
+    observation: FaceObservation,
+    config: FeatureConfig,
+    limits: QualityLimits = QualityLimits(),
+    template: np.ndarray | None = None,
+    check: bool = True,
+) -> tuple[str, Blocks | None]:
+    """The quality gate and the feature blocks of one face.
+
+    Parameters
+    ----------
+    observation : FaceObservation
+    config : FeatureConfig
+        ``config.blocks`` names the blocks computed.
+    limits : QualityLimits
+    template : (68, 2) array, optional
+        Canonical shape template of the gate (:func:`~aamcore.expression.quality.landmark_problem`).
+    check : bool
+        Run the gate (False: only compute the blocks, for a face known to pass).
+
+    Returns
+    -------
+    problem : str
+        ``""`` or why the face is refused (``""`` when ``check`` is False).
+    blocks : dict of str to 1-D float64 array, or None
+        By name, in ``config.blocks`` order, lengths as
+        :meth:`FeatureConfig.block_dims`; None when there is a problem.
+
+    Raises
+    ------
+    FaceFeatureError
+        With ``check`` False, for landmarks of the wrong shape, non-finite or
+        with coincident eyes.
+    """
+    if check:
+        problem = landmark_problem(observation, limits, template)
+        if problem:
+            return problem, None
+    points = observation.landmarks
+    check_landmarks(points)
+    hog = None
+    if check or "hog" in config.blocks:
+        problem, hog = _hog(observation.image, points, config, limits if check else None)
+        if problem:
+            return problem, None
+    blocks: Blocks = {}
+    for name in config.blocks:
+        if name == "hog":
+            assert hog is not None
+            blocks[name] = hog
+        elif name == "shape":
+            blocks[name] = canonical_shape(points).ravel()
+        else:
+            blocks[name] = np.asarray(observation.appearance, np.float64).copy()
+    return "", blocks
+
+
+def _hog(image: np.ndarray, points: np.ndarray, config: FeatureConfig,
+         limits: QualityLimits | None) -> tuple[str, np.ndarray]:
+    """The HOG block (P * cells^2 * bins,) of the face's canonical crop and, with ``limits``,
+    the gate's verdict on its mirror symmetry (``""``: none checked or it passes)."""
+    crop, crop_points = aligned_face(image, points, config.crop_size, config.eye_distance,
+                                     config.eye_row)
+    equalised = cv2.equalizeHist(crop)
+    hog = hog_block(equalised if config.equalise else crop, crop_points, config)
+    if limits is None:
+        return "", hog
+    symmetry = mirror_symmetry(equalised, crop_points, config, hog if config.equalise else None)
+    return symmetry_problem(symmetry, limits), hog
+
+
+def face_problem(
+    observation: FaceObservation,
+    limits: QualityLimits = QualityLimits(),
+    template: np.ndarray | None = None,
+) -> str:
+    """Why a face cannot be classified, or ``""``: the landmark checks, then the mirror
+    symmetry of its HOG patches (default feature settings)."""
+    return analyse_face(observation, FeatureConfig(blocks=("hog",)), limits, template)[0]
+
+
+def feature_vector(blocks: Blocks, config: FeatureConfig) -> np.ndarray:
+    """The blocks of :func:`analyse_face` side by side in ``config.blocks`` order; (d,)."""
+    return np.concatenate([blocks[name] for name in config.blocks])
+
+
+@dataclass
+class Observed:
+    """Feature blocks of many faces, as :func:`observe` computes them.
+
+    Attributes
+    ----------
+    blocks : dict of str to (n, d_b) float64 array
+        Every block asked for; rows of refused faces are zero.
+    problems : list of str
+        Per face: ``""`` or why it was refused.
+    """
+
+    blocks: Blocks
+    problems: list[str]
+
+    @property
+    def ok(self) -> np.ndarray:
+        """Boolean mask (n,) of the classifiable faces."""
+        return np.array([not p for p in self.problems], dtype=bool)
+
+    def vectors(self, names: Sequence[str]) -> np.ndarray:
+        """The blocks ``names`` side by side, shape (n, sum of their lengths)."""
+        return np.hstack([self.blocks[name] for name in names])
+
+    def dims(self, names: Sequence[str]) -> dict[str, int]:
+        """The lengths of the blocks ``names``, in that order."""
+        return {name: int(self.blocks[name].shape[1]) for name in names}
+
+
+def observe(
+    observations: Sequence[FaceObservation],
+    config: FeatureConfig,
+    limits: QualityLimits = QualityLimits(),
+    template: np.ndarray | None = None,
+) -> Observed:
+    """:func:`analyse_face` of each observation, gate included.
+
+    Parameters
+    ----------
+    observations : sequence of n FaceObservation
+    config : FeatureConfig
+    limits, template
+        Of the gate.
+
+    Returns
+    -------
+    Observed
+    """
+    rows: list[Blocks | None] = []
+    problems = []
+    for observation in observations:
+        try:
+            problem, blocks = analyse_face(observation, config, limits, template)
+        except FaceFeatureError as exc:
+            problem, blocks = f"no features: {exc}", None
+        rows.append(blocks)
+        problems.append(problem)
+    good = [r for r in rows if r is not None]
+    dims = {name: (good[0][name].size if good else 0) for name in config.blocks}
+    out = {name: np.zeros((len(rows), dims[name])) for name in config.blocks}
+    for i, r in enumerate(rows):
+        if r is not None:
+            for name in config.blocks:
+                out[name][i] = r[name]
+    return Observed(out, problems)

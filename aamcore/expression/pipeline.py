@@ -1,0 +1,125 @@
+"""The expression pipeline of one stream: quality gate, features, reference, classifier.
+
+::
+
+    pipeline = ExpressionPipeline(classifier)          # once per stream
+    estimate = pipeline.process(observation)           # per frame, in frame order
+    # estimate.label is None (with estimate.reason) or a class name with scores
+
+``observation`` is a :class:`~aamcore.expression.crop.FaceObservation` of the
+frame and its fit. The training and the benchmark compute their vectors with
+the same :func:`~aamcore.expression.analysis.analyse_face` and
+:class:`~aamcore.expression.reference.NeutralReference`.
+:class:`~aamcore.expression.recogniser.ExpressionRecogniser` adds the score
+smoothing and the frame bookkeeping the library and the service share.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from aamcore.expression.analysis import analyse_face, feature_vector
+from aamcore.expression.classifier_file import ExpressionClassifier
+from aamcore.expression.crop import FaceFeatureError, FaceObservation
+from aamcore.expression.quality import LEARNING
+from aamcore.expression.reference import NeutralReference
+
+LOST_FRAMES_RESET = 60
+"""Frames in a row without a classifiable face after which the reference is forgotten (the
+next face may be another person's): two seconds at 30 fps."""
+
+
+@dataclass(frozen=True, eq=False)
+class ExpressionEstimate:
+    """The expression of one frame before smoothing, or why there is none.
+
+    Attributes
+    ----------
+    label : str or None
+        The class of highest score; ``None`` when the face was not classified.
+    scores : (n_classes,) float64 array or None
+        Per-class scores in the classifier's ``class_names`` order.
+    reason : str
+        Why there is no label (empty when there is one), ``"<key>: <details>"``.
+    reference_count : int
+        Vectors in the stream's reference.
+    """
+
+    label: str | None
+    scores: np.ndarray | None
+    reason: str = ""
+    reference_count: int = 0
+
+    @property
+    def ok(self) -> bool:
+        return self.label is not None
+
+
+class ExpressionPipeline:
+    """Classify the faces of one stream.
+
+    Parameters
+    ----------
+    classifier : ExpressionClassifier
+    lost_frames_reset : int
+        Forget the reference after this many frames in a row without a
+        classifiable face.
+    """
+
+    def __init__(
+        self, classifier: ExpressionClassifier, lost_frames_reset: int = LOST_FRAMES_RESET
+    ) -> None:
+        if lost_frames_reset < 1:
+            raise ValueError(f"lost_frames_reset must be >= 1, got {lost_frames_reset}")
+        self.classifier = classifier
+        self.spec = classifier.pipeline
+        self.reference: NeutralReference = self.spec.new_reference()
+        self.lost_frames_reset = lost_frames_reset
+        self._lost = 0
+
+    def reset(self) -> None:
+        """Forget the stream's reference (a new stream or another person)."""
+        self.reference.reset()
+        self._lost = 0
+
+    def _none(self, reason: str) -> ExpressionEstimate:
+        self._lost += 1
+        if self._lost >= self.lost_frames_reset and self.reference.count:
+            self.reference.reset()
+        return ExpressionEstimate(None, None, reason, self.reference.count)
+
+    def process(self, observation: FaceObservation) -> ExpressionEstimate:
+        """The expression of the next frame of the stream.
+
+        A face the quality gate refuses gets no label, with the reason.
+        Otherwise its feature vector updates the reference (when the pipeline
+        is relative) and, once the reference is ready, ``vector - reference``
+        is classified; before that the reason is :data:`~aamcore.expression.quality.LEARNING`.
+        """
+        spec = self.spec
+        try:
+            problem, blocks = analyse_face(observation, spec.features, spec.quality,
+                                           spec.template)
+        except FaceFeatureError as exc:
+            return self._none(f"no features: {exc}")
+        if problem or blocks is None:
+            return self._none(problem)
+        vector = feature_vector(blocks, spec.features)
+        if vector.shape != (spec.feature_dim,):
+            return self._none(
+                f"wrong feature length: {vector.size}, the classifier expects "
+                f"{spec.feature_dim} (appearance vector of {observation.appearance.size})"
+            )
+        self._lost = 0
+        if spec.relative:
+            self.reference.update(vector)
+            if not self.reference.ready:
+                return ExpressionEstimate(
+                    None, None, f"{LEARNING}: {self.reference.count} of "
+                    f"{self.reference.min_count} samples", self.reference.count)
+            vector = vector - self.reference.reference()
+        scores = self.classifier.scores(vector[None, :])[0]
+        label = self.classifier.class_names[int(np.argmax(scores))]
+        return ExpressionEstimate(label, scores, "", self.reference.count)

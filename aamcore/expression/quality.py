@@ -1,0 +1,122 @@
+"""The quality gate: whether a fitted face can be classified at all, and why not.
+
+A face is refused, with a reason of the form ``"<short key>: <details>"``
+(:func:`reason_key` gives the key), when no face was found, its landmarks are
+unusable, it is too small, mostly outside the frame, rolled or turned into
+profile, its canonical shape is unlike the training faces', or
+(:func:`symmetry_problem`) its texture does not match its mirror image. The
+fitter's own failure flag is not a reason: on expressive faces its appearance
+test often fails while the landmarks are right.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aamcore.expression.crop import (
+    FaceFeatureError,
+    FaceObservation,
+    approximate_yaw_deg,
+    canonical_shape,
+    check_landmarks,
+    eye_centres,
+)
+from aamcore.expression.spec import QualityLimits
+
+NO_FACE = "no face"
+LEARNING = "learning the face's reference"
+"""The reason of a classifiable face while the stream's reference is too young."""
+
+
+def reason_key(reason: str) -> str:
+    """The short key of a reason (what precedes its first colon): ``"face in profile"``."""
+    return reason.split(":", 1)[0].strip()
+
+
+def shape_deviation(points: np.ndarray, template: np.ndarray) -> float:
+    """RMS distance (eye distances) of the canonical shape of (68, 2) ``points`` from a
+    (68, 2) canonical ``template``."""
+    return float(np.sqrt(np.mean(np.sum((canonical_shape(points) - template) ** 2, axis=1))))
+
+
+def _no_face(observation: FaceObservation) -> str:
+    why = observation.fit_reason
+    return NO_FACE if not why or why == NO_FACE else f"{NO_FACE}: {why}"
+
+
+def _placement_problem(points: np.ndarray, image_shape: tuple[int, ...],
+                       limits: QualityLimits) -> str:
+    """Too small, outside the frame or rolled: ``""`` when none."""
+    left, right = eye_centres(points)
+    d = right - left
+    eye_distance = float(np.hypot(d[0], d[1]))
+    if eye_distance < limits.min_eye_distance:
+        return (f"face too small: eye centres {eye_distance:.1f} px apart "
+                f"(at least {limits.min_eye_distance:g} px needed)")
+    h, w = image_shape[:2]
+    inside = (points[:, 0] >= 0) & (points[:, 0] < w) & (points[:, 1] >= 0) & (points[:, 1] < h)
+    outside = 1.0 - float(inside.mean())
+    if outside > limits.max_outside:
+        return f"face outside the frame: {100 * outside:.0f} % of the landmarks beyond it"
+    roll = float(np.degrees(np.arctan2(d[1], d[0])))
+    if abs(roll) > limits.max_roll_deg:
+        return f"head rolled: {roll:.0f} degrees (at most {limits.max_roll_deg:g})"
+    return ""
+
+
+def landmark_problem(
+    observation: FaceObservation,
+    limits: QualityLimits = QualityLimits(),
+    template: np.ndarray | None = None,
+) -> str:
+    """Why a face cannot be classified, judged from its landmarks alone, or ``""``.
+
+    The checks, in order: found; 68 finite landmarks; eyes at least
+    ``limits.min_eye_distance`` px apart; at most ``limits.max_outside`` of
+    the landmarks outside the frame; eye line within ``limits.max_roll_deg``;
+    head turned at most ``limits.max_yaw_deg``; and, when ``template`` is
+    given, a canonical shape within ``limits.max_shape_deviation`` eye
+    distances RMS of it.
+
+    Parameters
+    ----------
+    observation : FaceObservation
+    limits : QualityLimits
+    template : (68, 2) array, optional
+        Mean canonical shape (:func:`~aamcore.expression.crop.canonical_shape`)
+        of the training faces.
+
+    Returns
+    -------
+    str
+        Empty, or a reason ``"<key>: <details>"`` (``"no face"`` alone when the
+        detector found none).
+    """
+    points = observation.landmarks
+    if points.size == 0:
+        return _no_face(observation)
+    try:
+        check_landmarks(points)
+    except FaceFeatureError as exc:
+        return f"unusable landmarks: {exc}"
+    placed = _placement_problem(points, observation.image.shape, limits)
+    if placed:
+        return placed
+    yaw = approximate_yaw_deg(points)
+    if abs(yaw) > limits.max_yaw_deg:
+        return f"face in profile: turned about {yaw:.0f} degrees (at most {limits.max_yaw_deg:g})"
+    if template is not None:
+        deviation = shape_deviation(points, template)
+        if deviation > limits.max_shape_deviation:
+            return (f"implausible landmarks: {deviation:.2f} eye distances RMS from the face "
+                    f"shapes the classifier was trained on (at most "
+                    f"{limits.max_shape_deviation:g})")
+    return ""
+
+
+def symmetry_problem(symmetry: float, limits: QualityLimits = QualityLimits()) -> str:
+    """The reason to refuse a face of this mirror symmetry, or ``""``."""
+    if symmetry >= limits.min_symmetry:
+        return ""
+    return (f"face in profile or badly fitted: it matches its mirror image {symmetry:.2f} "
+            f"(at least {limits.min_symmetry:g} for a frontal face)")

@@ -1,0 +1,72 @@
+"""aamcore.expression.pipeline: one stream's gate, reference and classifier, on synthetic faces."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from aamcore.expression.classifier_file import ExpressionClassifier
+from aamcore.expression.crop import FaceObservation
+from aamcore.expression.face_classifier import LinearModel
+from aamcore.expression.pipeline import ExpressionPipeline
+from aamcore.expression.spec import FeatureConfig, PipelineSpec
+from tests.aamcore.expression.synthetic_faces import (
+    expression_observation,
+    place,
+    stream_classifier,
+    unit_face,
+)
+
+
+@pytest.fixture(scope="module")
+def classifier() -> ExpressionClassifier:
+    return stream_classifier()
+
+
+def test_a_stream_learns_its_reference_then_classifies(classifier: ExpressionClassifier) -> None:
+    pipeline = ExpressionPipeline(classifier)
+    person = 0.05  # a person the classifier has not seen
+    first = pipeline.process(expression_observation("NE", person))
+    assert not first.ok and first.reason == "learning the face's reference: 1 of 3 samples"
+    assert first.scores is None and first.reference_count == 1
+    pipeline.process(expression_observation("HA", person))
+    third = pipeline.process(expression_observation("SU", person))
+    assert third.ok and third.label == "SU" and third.reference_count == 3 and third.reason == ""
+    assert third.scores is not None and third.scores.shape == (3,)
+    assert pipeline.process(expression_observation("HA", person)).label == "HA"
+    assert pipeline.process(expression_observation("NE", person)).label == "NE"
+
+
+def test_refused_faces_say_why_and_a_long_loss_forgets_the_reference(
+    classifier: ExpressionClassifier,
+) -> None:
+    pipeline = ExpressionPipeline(classifier, lost_frames_reset=3)
+    for kind in ("NE", "HA", "SU"):
+        pipeline.process(expression_observation(kind, 0.0))
+    face = unit_face()
+    face[27:36, 0] += 0.5
+    profile = pipeline.process(expression_observation("NE", 0.0,
+                                                      place(face, 60.0, 0.0, (160.0, 110.0))))
+    assert profile.label is None and profile.reason.startswith("face in profile")
+    assert profile.reference_count == 3
+    lost = FaceObservation.from_arrays(np.zeros((240, 320), np.uint8), None, None, True,
+                                       "no face")
+    assert pipeline.process(lost).reason == "no face"
+    assert pipeline.process(lost).reference_count == 0  # third frame without a face
+    pipeline.process(expression_observation("NE", 0.0))
+    pipeline.reset()
+    assert pipeline.reference.count == 0
+    with pytest.raises(ValueError):
+        ExpressionPipeline(classifier, lost_frames_reset=0)
+
+
+def test_an_appearance_vector_of_another_length_gives_no_expression() -> None:
+    spec = PipelineSpec(FeatureConfig(blocks=("shape", "appearance")), appearance_dim=3,
+                        relative=False)
+    model = LinearModel(np.zeros(139), np.ones(139), np.zeros((2, 139)), np.zeros(2))
+    classifier = ExpressionClassifier("linear", ("NE", "HA"), "model", model, spec)
+    pipeline = ExpressionPipeline(classifier)
+    obs = expression_observation("NE", 0.0)
+    assert pipeline.process(obs).label == "NE"  # absolute: no reference to learn
+    longer = FaceObservation.from_arrays(obs.image, obs.landmarks, np.zeros(5))
+    assert pipeline.process(longer).reason.startswith("wrong feature length: 141")
