@@ -16,7 +16,8 @@ class PoseOptions(Options):
                         check=in_range(1, 179))
     calibration: str | None = option(None, "camera calibration file (.yaml, .xml, .json)",
                                      metavar="FILE")
-    capacity: int = option(8, "latest fits kept while busy", check=in_range(1, 1024))
+    capacity: int = option(64, "latest fits kept while busy: a burst of fast-paced fits is "
+                           "worked through, not dropped", check=in_range(1, 1024))
     smooth: bool = option(True, "smooth the pose over time (One Euro filter)")
     estimator: str = option(defaults.POSE_ESTIMATOR,
                             "head-pose estimator: contour (jaw landmarks matched to the outline "
