@@ -153,7 +153,8 @@ class ExpressionClassifier:
         return np.array(self.class_names)[np.argmax(self.scores(X), axis=1)]
 
     def check_fit(self, scheme: str, n_landmarks: int, appearance_dim: int) -> None:
-        """Refuse fits of another landmark scheme or appearance length than the pipeline's.
+        """Refuse fits of another landmark scheme than the pipeline's, or of another appearance
+        length when the pipeline classifies the appearance.
 
         Raises
         ------
@@ -167,7 +168,7 @@ class ExpressionClassifier:
                 f"({N_LANDMARKS} landmarks), not on {scheme} fits with {n_landmarks} landmarks: "
                 "retrain it for this fitting model"
             )
-        if appearance_dim != spec.appearance_dim:
+        if "appearance" in spec.features.blocks and appearance_dim != spec.appearance_dim:
             raise AAMMismatchError(
                 f"this expression classifier was trained on fits with {spec.appearance_dim} "
                 f"appearance parameters, this fit has {appearance_dim}: retrain it for this AAM"

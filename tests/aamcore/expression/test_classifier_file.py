@@ -171,3 +171,12 @@ def test_bad_vectors_and_unfitted_estimators_are_refused(features: Features) -> 
     with pytest.raises(ValueError, match="pipeline makes vectors of length 3"):
         ExpressionClassifier.from_estimator(_estimator("svm_ova", X, y), FINGERPRINT,
                                             appearance_spec(3))
+
+
+def test_a_pipeline_without_the_appearance_takes_fits_without_one(classifier_path) -> None:
+    # Trackers that compute no AAM appearance publish fits with an empty one.
+    classifier = ExpressionClassifier.load(classifier_path)
+    assert "appearance" not in classifier.pipeline.features.blocks
+    classifier.check_fit("ibug68", 68, 0)
+    with pytest.raises(AAMMismatchError, match="not on imm58 fits"):
+        classifier.check_fit("imm58", 58, 0)
