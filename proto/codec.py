@@ -66,7 +66,7 @@ def _text(exc: Exception) -> str:
     if values and isinstance(template, str) and "%" in template:
         try:
             return template % tuple(values)
-        except TypeError:
+        except (TypeError, ValueError):  # a literal '%' in the data, not a template
             pass
     return str(exc)
 
