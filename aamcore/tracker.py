@@ -54,7 +54,10 @@ class FaceResult:
     success : bool
         A face was found and its fit passed the failure test.
     confidence : float
-        How much the fit looks like a face, 0 to 1 (0 without a face).
+        How good the fit is, 0 to 1 (0 without a face or for a failed fit): from
+        the learned quality score with the default method
+        (:meth:`~aamcore.fitting.failure.QualityTest.confidence`), from the
+        appearance's chi-square with the AAM methods.
     landmarks : (N, 2) float64 array
         Landmarks in pixels; ``(0, 2)`` without a face.
     similarity : Similarity or None
@@ -154,13 +157,16 @@ class FaceTracker:
                  failure_test: str = defaults.FAILURE_TEST, smoothing: bool = False,
                  pose_estimator: str = defaults.POSE_ESTIMATOR) -> None:
         self.model = _model(model)
-        fitter = Fitter(self.model, algorithm, failure_test=failure_test)
+        loaded = _classifier(classifier)
+        # The expression classifier reads the appearance c: sampled for it where the
+        # method computes none (as the stack's fitter does when an expression is wanted).
+        fitter = Fitter(self.model, algorithm, failure_test=failure_test,
+                        appearance=loaded is not None)
         self.tracker = Tracker(fitter, HaarFaceDetector())
         calibration = camera if isinstance(camera, str | Path) else None
         fov = float(camera) if isinstance(camera, int | float) else defaults.FOV_DEG
         cameras = Cameras(fov, str(calibration) if calibration else None)
         self.pose = HeadPoseTracker(HeadPoseEstimator(cameras, method=pose_estimator), smoothing)
-        loaded = _classifier(classifier)
         self.expression = ExpressionRecogniser(loaded) if loaded is not None else None
         self.landmarks = LandmarkSmoother() if smoothing else None
         self.frames = 0
@@ -195,8 +201,8 @@ class FaceTracker:
         return result_of(index, t, fit, points, pose, why, expression)
 
     def recognise(self, index: int, fit: FitResult) -> Recognition | None:
-        """The expression of a good fit, when a classifier was given."""
-        if self.expression is None or fit.failed:
+        """The expression of a good fit with an appearance, when a classifier was given."""
+        if self.expression is None or fit.failed or fit.c.size == 0:
             return None
         try:
             return self.expression.recognise(index, fit.c)

@@ -54,7 +54,14 @@ class FittedFaces:
 def fit_faces(
     samples: Sequence[ExpressionSample], fitter: Fitter, detector: HaarFaceDetector | None = None
 ) -> FittedFaces:
-    """Fit every sample's face from its Haar box; leave out (and list) faces without a good fit."""
+    """Fit every sample's face from its Haar box; leave out (and list) faces without a good fit.
+
+    Raises
+    ------
+    ValueError
+        When ``fitter`` gives no appearance ``c`` (a method that computes none,
+        without ``appearance=True``).
+    """
     detector = detector or HaarFaceDetector(min_size=(48, 48))
     fitted, kept, appearance, errors = [], [], [], []
     for i, sample in enumerate(samples):
@@ -71,6 +78,9 @@ def fit_faces(
         if result.failed:
             errors.append(f"{sample.image_path}: fit failed ({result.reason})")
             continue
+        if result.c.size != fitter.aam.n_appearance:
+            raise ValueError(f"the fitter's {fitter.name} fits carry no appearance: give "
+                             "the Fitter appearance=True")
         fitted.append(FaceSample(sample.image_path, result.points, sample.poser))
         kept.append(i)
         appearance.append(result.c)

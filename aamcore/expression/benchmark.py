@@ -86,13 +86,13 @@ class PixelData:
 
 
 def load_aam_data(folder: str | Path | None = None, fitter: Fitter | None = None) -> PixelData:
-    """Read JAFFE and fit every face with the generic LFPW fitter (see :mod:`.aam_features`).
+    """Read JAFFE and fit every face with the generic fitter (see :mod:`.aam_features`).
 
     The fitter defaults to the stack's model (:func:`fitting_model_path`),
-    trained on LFPW only.
+    trained on the training splits of LFPW, HELEN and AFW.
     """
     jaffe = load_jaffe(folder)
-    fitter = fitter or Fitter(FittingModel.load(default_model_path()))
+    fitter = fitter or Fitter(FittingModel.load(default_model_path()), appearance=True)
     faces = fit_faces(jaffe.samples, fitter)
     scheme = fitter.aam.scheme
     return PixelData(

@@ -57,7 +57,7 @@ def jaffe_appearance(
     posers : (n,) array of str
     """
     data = load_jaffe(folder)
-    faces = fit_faces(data.samples, Fitter(FittingModel.load(model_path)))
+    faces = fit_faces(data.samples, Fitter(FittingModel.load(model_path), appearance=True))
     if not faces.samples:
         raise DatasetError(f"no JAFFE face could be fitted in {data.root}")
     return faces.appearance, data.labels()[faces.kept], data.posers()[faces.kept]

@@ -8,7 +8,8 @@ scores are averaged over the last N good fits (a failed fit or a lost face
 starts the average again) and the message says so. Without a usable
 classifier (none given, unreadable, or trained for another model) the service
 still runs: it takes fits, publishes no expression and says why in its status
-(state ``degraded``).
+(state ``degraded``); so it does for fits without an appearance vector (a
+fitter method that computes none, run without ``--appearance``).
 """
 
 from __future__ import annotations
@@ -66,10 +67,17 @@ def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
         svc.set_state("degraded", why)
     else:
         svc.ready(f"{classifier.kind}, classes {','.join(classifier.class_names)}")
+    without = 0
     for got in fits:
         fit = got.message
         assert isinstance(fit, Fit)
         if recogniser is None or fit.failed:
+            continue
+        if len(fit.appearance) == 0:  # the fitter's method samples none unless asked
+            without += 1
+            if without == 1:
+                svc.set_state("degraded", "fits carry no appearance vector: start the fitter "
+                              "with --appearance (local-binary samples none without it)")
             continue
         try:
             message = expression_message(svc, fit, recogniser)

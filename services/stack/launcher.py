@@ -90,7 +90,8 @@ def prepare_models(opts: StackOptions) -> StackOptions:
     The fitter's model is ``--model`` or the default one; the expression
     service gets the same model and its classifier (``--classifier`` or the
     cached one, trained on first use; none when JAFFE cannot be had, and the
-    service then says why in its status).
+    service then says why in its status). The fitter samples the appearance
+    only when an expression is classified.
     """
     from aamcore.io.sample import DatasetError
     from services.fitter.service import model_path
@@ -112,6 +113,9 @@ def prepare_models(opts: StackOptions) -> StackOptions:
             except (DatasetError, OSError, ValueError) as exc:
                 log.warning("no expression classifier: %s", exc)
         services["expression"] = expression.replace(model=path, classifier=classifier)
+    # Only the expression service reads the appearance: not sampled for nobody.
+    wanted = expression is not None and bool(services["expression"].classifier)
+    services["fitter"] = services["fitter"].replace(appearance=fitter.appearance and wanted)
     return replace(opts, services=services)
 
 

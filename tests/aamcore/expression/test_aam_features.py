@@ -7,7 +7,7 @@ from aamcore.fitting.model import FittingModel
 
 
 def test_fitted_faces_and_per_fold_appearance(jaffe_set, lfpw_fit_model_path) -> None:
-    fitter = Fitter(FittingModel.load(lfpw_fit_model_path))
+    fitter = Fitter(FittingModel.load(lfpw_fit_model_path), appearance=True)
     chosen = [s for s in jaffe_set.samples if s.poser in ("KA", "KL", "KM")]
     faces = fit_faces(chosen, fitter)
     assert len(faces.samples) + len(faces.errors) == len(chosen)
