@@ -100,7 +100,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--trials must be at least 1, got {args.trials}")
     C_grid, gamma_grid = SVM_GRIDS[args.grid]
     if args.features == "aam":
-        fitter = Fitter(FittingModel.load(args.fit_model)) if args.fit_model else None
+        fitter = (Fitter(FittingModel.load(args.fit_model), appearance=True) if args.fit_model
+                  else None)
         data = load_aam_data(args.data, fitter)
     else:
         data = load_pixel_data(args.data)

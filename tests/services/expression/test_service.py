@@ -29,7 +29,7 @@ def happy_fit(model_path: Path, data_dir: Path, index: int) -> Fit:
     sample = next(s for s in load_jaffe(data_dir / "jaffe").samples if s.label == "HA")
     image = sample.load_image()
     box = HaarFaceDetector().detect(image)[0]
-    result = Fitter(FittingModel.load(model_path)).fit_box(image, box)
+    result = Fitter(FittingModel.load(model_path), appearance=True).fit_box(image, box)
     sim = result.similarity
     return Fit(Header.now("cam0", index, "fitter"), "ibug68", result.points.astype(np.float32),
                result.c.astype(np.float32), np.array([sim.a, sim.b, sim.tx, sim.ty], np.float32),

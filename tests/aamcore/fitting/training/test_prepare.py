@@ -16,9 +16,9 @@ def test_small_default_model_has_every_part(model_path) -> None:
     assert model_path.name.startswith("lfpw-helen-afw-")
     assert model.binary is not None and model.cascade is not None and len(model.updates) == 2
     report = model.binary.report
-    assert report["faces"] == 240  # 120 faces of the three training splits and their mirrors
+    assert report["faces"] == 600  # 300 faces of the three training splits and their mirrors
     assert report["no_face_frames"] > 0 and model.binary.space.n_points == 68
-    assert len(model.aam.summary["fit_images"]) == 120
+    assert len(model.aam.summary["fit_images"]) == 300
 
 
 def test_models_without_a_mirror_permutation_train_without_one(imm_fit_model) -> None:
