@@ -52,6 +52,23 @@ def _no_bar(desc: str) -> Callable[[Iterable[Any]], Iterable[Any]]:
     return lambda items: items
 
 
+def _sized(wrap: Callable[[Iterable[Any]], Iterable[Any]], total: int
+           ) -> Callable[[Iterable[Any]], Iterable[Any]]:
+    """``wrap`` given ``total`` (a bar shows a percentage only when it knows the length)."""
+
+    class Sized:
+        def __init__(self, items: Iterable[Any]) -> None:
+            self.items = items
+
+        def __iter__(self):
+            return iter(self.items)
+
+        def __len__(self) -> int:
+            return total
+
+    return lambda items: wrap(Sized(items))
+
+
 def subset(samples: Sequence[FaceSample], n: int | None) -> list[FaceSample]:
     """At most ``n`` of ``samples``, evenly spread over them (all for None)."""
     if not n or n >= len(samples):
@@ -84,7 +101,7 @@ def train_fitting_model(
     """
     bar = bar or _no_bar
     detected = detect_faces(samples, binary.n_jobs if binary else 2,
-                            progress=bar("face detection"))
+                            progress=_sized(bar("face detection"), len(samples)))
     mapping = fit_box_to_shape(aam.shape.mean_shape, [s.points for s in samples],
                                [d.boxes for d in detected])
     chosen = subset(range(len(samples)), aam_images)  # type: ignore[arg-type]
