@@ -37,12 +37,13 @@ def cache_dir() -> Path:
 def resolve_dataset(name_or_path: str | os.PathLike[str]) -> Path:
     """Map a dataset name (``imm_frontal``, ``lfpw``) or a path to a folder.
 
-    ``lfpw`` means ``lfpw/trainset``. A path that exists is returned as is.
+    ``lfpw`` means ``lfpw/trainset`` and ``helen`` ``helen/trainset``. A path
+    that exists is returned as is.
     """
     path = Path(name_or_path).expanduser()
     if path.exists():
         return path.resolve()
-    aliases = {"lfpw": "lfpw/trainset", "imm": "imm_frontal"}
+    aliases = {"lfpw": "lfpw/trainset", "helen": "helen/trainset", "imm": "imm_frontal"}
     candidate = data_root() / aliases.get(str(name_or_path), str(name_or_path))
     if candidate.exists():
         return candidate

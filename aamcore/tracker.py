@@ -54,7 +54,10 @@ class FaceResult:
     success : bool
         A face was found and its fit passed the failure test.
     confidence : float
-        How much the fit looks like a face, 0 to 1 (0 without a face).
+        How good the fit is, 0 to 1 (0 without a face or for a failed fit): from
+        the learned quality score with the default method
+        (:meth:`~aamcore.fitting.failure.QualityTest.confidence`), from the
+        appearance's chi-square with the AAM methods.
     landmarks : (N, 2) float64 array
         Landmarks in pixels; ``(0, 2)`` without a face.
     similarity : Similarity or None
@@ -184,13 +187,17 @@ class FaceTracker:
                  pose_estimator: str = defaults.POSE_ESTIMATOR,
                  expression_smooth: int = 1) -> None:
         self.model, path = _model(model)
-        fitter = Fitter(self.model, algorithm, failure_test=failure_test)
+        self.expression = _recogniser(classifier, self.model, path, expression_smooth)
+        # Sampled only for a classifier that reads the appearance c (a method such as
+        # local-binary computes none), as the stack's fitter does.
+        fitter = Fitter(self.model, algorithm, failure_test=failure_test,
+                        appearance=self.expression is not None
+                        and "appearance" in self.expression.classifier.pipeline.features.blocks)
         self.tracker = Tracker(fitter, HaarFaceDetector())
         calibration = camera if isinstance(camera, str | Path) else None
         fov = float(camera) if isinstance(camera, int | float) else defaults.FOV_DEG
         cameras = Cameras(fov, str(calibration) if calibration else None)
         self.pose = HeadPoseTracker(HeadPoseEstimator(cameras, method=pose_estimator), smoothing)
-        self.expression = _recogniser(classifier, self.model, path, expression_smooth)
         self.landmarks = LandmarkSmoother() if smoothing else None
         self.frames = 0
 

@@ -49,7 +49,7 @@ from services.bus.session import Service
 from services.stack.launcher import Stack, free_port, prepared
 from services.stack.options import StackOptions, parse_run_args
 
-MODEL_LIMIT = 120
+MODEL_LIMIT = 300
 MODEL_IMAGES = 10
 RECOVERY_TARGET_S = 2.0
 MEMORY_GROWTH_TARGET = 0.05

@@ -1,18 +1,24 @@
 """Fitting speed on one core: tracking from the previous frame and starting from a Haar box.
 
-Run: ``.venv/bin/python bench/bench_fit_speed.py``
+Run: ``PYTHONPATH=. .venv/bin/python bench/bench_fit_speed.py [--model FILE] [--letterbox]``
 
-Uses the stack's default model (LFPW, grey, about 10k reference pixels;
-trained and cached on first use) on the frames of ``videos/single_face.mp4``
-letterboxed to 640x480. Tracking fits each frame from the previous frame's
-fit; the Haar start fits each frame from its detection (detection timed
-apart). Targets: tracking >= 300 fits/s, from a Haar box >= 50 fits/s.
+Uses the stack's default model (trained on the training splits of LFPW, HELEN
+and AFW, cached on first use) or ``--model``, on the frames of
+``videos/single_face.mp4`` (640x360; ``--letterbox`` puts them on a 640x480
+canvas as before), every method through the
+:class:`~aamcore.fitting.fitter.Fitter` with its default failure test.
+Tracking fits each frame from the previous frame's fit; the Haar start fits
+each frame from its detection (detection timed apart). Targets: the default
+method tracks >= 1000 fits/s, fits from a Haar box >= 50 fits/s;
+supervised-descent tracks >= 300 fits/s.
 """
 
 from __future__ import annotations
 
+import argparse
 import os
 import time
+from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -20,10 +26,11 @@ import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 from threadpoolctl import threadpool_limits  # noqa: E402
 
+from aamcore import defaults  # noqa: E402
 from aamcore.config import data_root  # noqa: E402
 from aamcore.detection.haar import HaarFaceDetector  # noqa: E402
-from aamcore.fitting.algorithm import ALGORITHMS
-from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.algorithm import ALGORITHMS  # noqa: E402
+from aamcore.fitting.fitter import Fitter  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
 from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
 from aamcore.io.video import video_frames  # noqa: E402
@@ -47,9 +54,15 @@ def rate(seconds: list[float]) -> tuple[float, float]:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", type=Path, help="fitting model (default: the default one)")
+    parser.add_argument("--letterbox", action="store_true", help="frames on a 640x480 canvas")
+    args = parser.parse_args()
     cv2.setNumThreads(1)
-    frames = [letterbox(f) for f in video_frames(data_root() / "videos" / "single_face.mp4")]
-    model = FittingModel.load(default_model_path())
+    frames = video_frames(data_root() / "videos" / "single_face.mp4")
+    if args.letterbox:
+        frames = [letterbox(f) for f in frames]
+    model = FittingModel.load(args.model or default_model_path())
     aam = model.aam
     detector = HaarFaceDetector()
     det_times, boxes = [], []
@@ -58,7 +71,8 @@ def main() -> None:
         found = detector.detect(frame)
         det_times.append(time.perf_counter() - t0)
         boxes.append(found[0] if len(found) else None)
-    print(f"{len(frames)} frames 640x480, model {aam.frame.n_pixels} px "
+    print(f"{len(frames)} frames {frames[0].shape[1]}x{frames[0].shape[0]}, model AAM "
+          f"{aam.frame.n_pixels} px "
           f"{'grey' if aam.channels == 1 else 'colour'}, one core")
     print(f"Haar detection: {1000 * np.median(det_times):.1f} ms median "
           f"({sum(b is not None for b in boxes)} of {len(frames)} frames with a face)\n")
@@ -87,11 +101,15 @@ def main() -> None:
             results[name] = (track, box_rate)
             print(f"{fitter.name:<44}{track:>13.0f}{track_ms:>7.2f}{box_rate:>11.0f}{box_ms:>7.2f}"
                   f"{np.mean(iterations):>6.1f}")
-    track, box_rate = results["supervised-descent"]
-    print("\nfor the default fitter (supervised-descent):")
-    print(f"{'PASS' if track >= 300 else 'FAIL'}: tracking {track:.0f} fits/s (target >= 300)")
+    track, box_rate = results[defaults.ALGORITHM]
+    print(f"\nfor the default method ({defaults.ALGORITHM}):")
+    print(f"{'PASS' if track >= 1000 else 'FAIL'}: tracking {track:.0f} fits/s (target >= 1000)")
     print(f"{'PASS' if box_rate >= 50 else 'FAIL'}: from a Haar box {box_rate:.0f} fits/s "
           "(target >= 50)")
+    if "supervised-descent" in results:
+        track = results["supervised-descent"][0]
+        print(f"{'PASS' if track >= 300 else 'FAIL'}: supervised-descent (the AAM methods' best) "
+              f"tracks {track:.0f} fits/s (target >= 300)")
 
 
 if __name__ == "__main__":

@@ -174,7 +174,7 @@ def main() -> int:
                         help="the small test model (120 images), as the tests use")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
-    model = (default_model_path(max_images=10, limit=120) if args.small_model
+    model = (default_model_path(max_images=10, limit=300) if args.small_model
              else default_model_path())
     classifier = classifier_path(model)
     ok = option_errors(model)

@@ -154,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
         common = ["--video", str(video), "--warp", args.warp,
                   *(["--no-ar"] if args.no_ar else []),
                   *(["--algorithm", args.algorithm] if args.algorithm else []),
-                  *(["--model-limit", "120", "--model-images", "10"] if args.small_model else [])]
+                  *(["--model-limit", "300", "--model-images", "10"] if args.small_model else [])]
         rec = Path(tmp) / "fast.rec"
         rrd = ["--rrd", str(Path(tmp) / "run.rrd")] if args.rerun else []
         fast = run(parse_run_args([*common, "--pace", "fast", "--loop", str(args.loops),

@@ -106,8 +106,8 @@ class FitRecord:
 
 def held_out(aam: AAM, samples: Sequence[FaceSample]) -> list[FaceSample]:
     """The ``samples`` whose image (by content, :meth:`FaceSample.image_id`) and subject the
-    model was not trained on."""
-    trained = set(aam.summary.get("train_images", []))
+    model was not trained on (neither the AAM nor its fitting parts: ``fit_images``)."""
+    trained = set(aam.summary.get("train_images", [])) | set(aam.summary.get("fit_images", []))
     subjects = set(aam.summary.get("train_subjects", []))
     return [
         s

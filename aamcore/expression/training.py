@@ -96,7 +96,10 @@ def stack_observations(model: FittingModel, images: Iterable[np.ndarray]) -> lis
     list of FaceObservation
         Without landmarks (reason ``"no face"``) where Haar found none.
     """
-    fitter = Fitter(model, defaults.ALGORITHM, failure_test=defaults.FAILURE_TEST)
+    # The appearance c is sampled for the variants that classify it (the default method
+    # computes none).
+    fitter = Fitter(model, defaults.ALGORITHM, failure_test=defaults.FAILURE_TEST,
+                    appearance=True)
     tracker = Tracker(fitter, HaarFaceDetector(**defaults.DETECTOR))
     out = []
     for image in images:

@@ -2,7 +2,9 @@
 
 A :class:`FittingModel` holds the box-to-shape mapping of the initialisation,
 one update matrix per pyramid level (fixed-Jacobian and multi-resolution
-fitting) and the supervised-descent cascade. It is saved as the *extra* part
+fitting), the supervised-descent cascade and the local-binary cascade (the
+default method, with its quality stage and failure threshold). It is saved as
+the *extra* part
 of the AAM's model file (:mod:`aamcore.model.file`), so one file holds a
 model ready to track with.
 """
@@ -16,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from aamcore.detection.mapping import BoxToShapeMapping
+from aamcore.fitting.algorithm.local_binary import BinaryCascade
 from aamcore.fitting.algorithm.supervised_descent import DescentCascade
 from aamcore.fitting.training.update import PerturbationScheme, UpdateMatrix
 from aamcore.model.aam import AAM
@@ -38,12 +41,15 @@ class FittingModel:
         ``updates[l]`` for images halved ``l`` times (level 0: full resolution).
     cascade : DescentCascade or None
         The supervised-descent cascade, when one was trained.
+    binary : BinaryCascade or None
+        The local-binary cascade, when one was trained (68-point models).
     """
 
     aam: AAM
     mapping: BoxToShapeMapping
     updates: list[UpdateMatrix]
     cascade: DescentCascade | None = None
+    binary: BinaryCascade | None = None
 
     def __post_init__(self) -> None:
         expected = (self.aam.n_appearance + 4, self.aam.texture_basis.shape[0])
@@ -103,6 +109,10 @@ def _record(model: FittingModel) -> tuple[dict[str, Any], dict[str, np.ndarray]]
         arrays.update({f"descent_{k}": w for k, w in enumerate(model.cascade.weights)})
         header["cascade"] = {"stages": len(model.cascade.weights),
                              "hog_cell": model.cascade.hog_cell}
+    header["binary"] = None
+    if model.binary is not None:
+        header["binary"], binary_arrays = model.binary.arrays("binary")
+        arrays.update(binary_arrays)
     return header, arrays
 
 
@@ -120,4 +130,10 @@ def _from_record(
         info = header["cascade"]
         weights = [arrays[f"descent_{k}"] for k in range(int(info["stages"]))]
         cascade = DescentCascade(weights, int(info["hog_cell"]))
-    return FittingModel(aam, mapping, updates, cascade)
+    binary = None
+    if header.get("binary"):
+        binary = BinaryCascade.from_arrays(header["binary"], arrays, "binary")
+        if binary.space.n_points != aam.scheme.n_points:
+            raise ValueError(f"local-binary cascade of {binary.space.n_points} points, "
+                             f"the AAM has {aam.scheme.n_points}")
+    return FittingModel(aam, mapping, updates, cascade, binary)

@@ -40,6 +40,14 @@ class FitResult:
         Texture error after each iteration.
     confidence : float
         How much the fit looks like a face, 0 to 1 (set by the fitter's failure test).
+    score : float
+        The learned fit-quality score, the predicted ``log(NME)`` of the landmarks
+        (:class:`~aamcore.fitting.failure.QualityTest`); NaN where none was computed.
+
+    Notes
+    -----
+    Methods that compute no AAM appearance (``local-binary``) leave ``c`` empty,
+    shape ``(0,)``, unless the fitter is asked to sample it.
     """
 
     points: np.ndarray
@@ -53,6 +61,7 @@ class FitResult:
     iteration_seconds: list[float] = field(default_factory=list)
     errors: list[float] = field(default_factory=list)
     confidence: float = math.nan
+    score: float = math.nan
 
     @property
     def ok(self) -> bool:

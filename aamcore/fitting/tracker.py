@@ -31,6 +31,7 @@ class Tracker:
         self.fitter = fitter
         self.detector = detector or HaarFaceDetector()
         self.last: FitResult | None = None
+        self.size: tuple[int, ...] = ()
         self.detections = 0
 
     def reset(self) -> None:
@@ -41,8 +42,22 @@ class Tracker:
         """Fit ``image``; None when no face is found.
 
         A failed fit from the previous frame's parameters triggers a
-        detection on the same frame (thesis section 7.2.2).
+        detection on the same frame (thesis section 7.2.2); so does a frame of
+        another size than the last (the last fit says nothing of it). A failed
+        fit from a detection is returned but not tracked from: the next frame
+        detects again.
+
+        Raises
+        ------
+        ValueError
+            For something that is not an image array.
         """
+        if not isinstance(image, np.ndarray) or image.ndim not in (2, 3) or image.size == 0:
+            raise ValueError(f"not an image: {type(image).__name__} "
+                             f"{getattr(image, 'shape', '')}")
+        if image.shape[:2] != self.size:
+            self.size = image.shape[:2]
+            self.last = None
         if self.last is not None:
             result = self.fitter.track(image, self.last)
             if result.ok:

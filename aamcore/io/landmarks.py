@@ -109,6 +109,47 @@ def _ibug68() -> LandmarkScheme:
 IBUG68 = _ibug68()
 """The iBUG / 300-W 68-point markup used by LFPW."""
 
+
+def _ibug68_mirror() -> np.ndarray:
+    pairs = [(k, 16 - k) for k in range(17)]  # jaw
+    pairs += [(17 + k, 26 - k) for k in range(5)]  # brows
+    pairs += [(27, 27), (28, 28), (29, 29), (30, 30)]  # nose bridge
+    pairs += [(31 + k, 35 - k) for k in range(5)]  # nostrils
+    pairs += [(36, 45), (37, 44), (38, 43), (39, 42), (40, 47), (41, 46)]  # eyes
+    pairs += [(48 + k, 54 - k) for k in range(7)]  # upper outer lip
+    pairs += [(55, 59), (56, 58), (57, 57)]  # lower outer lip
+    pairs += [(60 + k, 64 - k) for k in range(5)]  # upper inner lip
+    pairs += [(65, 67), (66, 66)]  # lower inner lip
+    perm = np.full(68, -1, dtype=np.int64)
+    for a, b in pairs:
+        perm[a], perm[b] = b, a
+    return perm
+
+
+IBUG68_MIRROR = _ibug68_mirror()
+"""Index of each iBUG-68 point's mirror partner, (68,) int: the subject's right
+eye's outer corner (36) becomes the left eye's (45) in a left-right flipped image."""
+
+
+def mirror_points(points: np.ndarray, width: int, permutation: np.ndarray) -> np.ndarray:
+    """Landmarks (N, 2) of the left-right flipped image of ``width`` pixels.
+
+    ``x`` becomes ``width - 1 - x`` (0-based pixel centres, as
+    :func:`cv2.flip` maps them) and the points are renumbered by
+    ``permutation`` (N,) (e.g. :data:`IBUG68_MIRROR`) so that each keeps its meaning.
+
+    Raises
+    ------
+    ValueError
+        When ``points`` do not have one row per entry of ``permutation``.
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    if pts.shape != (len(permutation), 2):
+        raise ValueError(f"points {pts.shape} do not match a {len(permutation)}-point permutation")
+    flipped = pts[permutation].copy()
+    flipped[:, 0] = width - 1 - flipped[:, 0]
+    return flipped
+
 # IMM Frontal: the 12 contour paths of the AAM-API files, by path number.
 IMM_PATH_GROUPS = {
     0: "brows",

@@ -29,8 +29,9 @@ from aamcore.model.texture import TextureModel
 from aamcore.warp.reference_frame import ReferenceFrame
 
 FORMAT = "aamtrack-model"
-FORMAT_VERSION = 2
-"""Version 2: the fitting part is a typed section (``extra``), not loose attachments."""
+FORMAT_VERSION = 3
+"""Version 2: the fitting part is a typed section (``extra``), not loose attachments.
+Version 3: the fitting part may hold the local-binary cascade (the default method)."""
 EXTRA_PREFIX = "extra__"
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from dataclasses import asdict
 from pathlib import Path
@@ -87,7 +88,8 @@ def run_fit(args: argparse.Namespace) -> int:
                 "failed": fit.failed,
                 "reason": fit.reason,
                 "iterations": fit.iterations,
-                "texture_error": fit.error,
+                "texture_error": fit.error if math.isfinite(fit.error) else None,
+                "confidence": fit.confidence,
                 "scheme": aam.scheme.name,
             }
         )

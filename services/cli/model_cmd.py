@@ -62,6 +62,15 @@ def print_summary(header: dict[str, Any], path: Path) -> None:
         )
     for name, info in header.get("attachments", {}).items():
         print(f"  attachment {name}: {info}")
+    extra = header.get("extra", {})
+    if extra.get("kind") == "fitting":
+        binary = extra.get("binary")
+        print(f"  fitting part: {len(extra.get('updates', []))} update matrices, descent "
+              f"cascade {'yes' if extra.get('cascade') else 'no'}, local-binary cascade "
+              + (f"{binary['coarse']} coarse + {binary['tracking']} fern stages, failure "
+                 f"threshold {binary['threshold']:.2f}, trained on "
+                 f"{binary.get('report', {}).get('faces')} faces"
+                 if binary else "no"))
 
 
 def run_prepare(args: argparse.Namespace) -> int:

@@ -46,14 +46,20 @@ def config_from(args: argparse.Namespace) -> TrainConfig:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("train", help="train an AAM from annotated faces")
+    from aamcore import defaults
+
+    p = sub.add_parser("train", help="train an AAM (and with --fit everything fitting needs) "
+                       "from annotated faces")
     p.add_argument(
         "--data",
         required=True,
-        help="imm_frontal, lfpw, or a folder of .asf/.pts files with images",
+        help="comma-separated dataset names or folders of .asf/.pts files with images "
+        "(imm_frontal, lfpw, helen, afw; lfpw, helen and afw give their training split "
+        f"only); the default model's is {defaults.MODEL_DATASET}",
     )
     p.add_argument("--out", type=Path, help="model file (default: in the cache folder)")
-    p.add_argument("--limit", type=int, help="use at most this many images")
+    p.add_argument("--limit", type=int, help="use at most this many images (shared among "
+                   "the folders)")
     p.add_argument(
         "--hold-out-subjects",
         default="",
@@ -63,14 +69,20 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--train-fraction",
         type=float,
         default=1.0,
-        help="train on this first fraction of the images in name order "
-        "(LFPW: 0.8; the rest is the test split)",
+        help="train on this first fraction of the images in name order",
     )
     p.add_argument(
         "--fit",
         action="store_true",
-        help="also train what fitting needs (box mapping, update matrices, descent cascade)",
+        help="also train what fitting needs (box mapping, update matrices, descent cascade, "
+        "the local-binary cascade of the default method)",
     )
+    p.add_argument("--mirror", action=argparse.BooleanOptionalAction, default=True,
+                   help="with --fit: also train the local-binary cascade on every face "
+                   "flipped left-right (iBUG-68 markup; default on)")
+    p.add_argument("--aam-images", type=int, default=defaults.MODEL_AAM_IMAGES, metavar="N",
+                   help="train the AAM (and the descent cascade) on at most N faces spread "
+                   f"over the training faces (default {defaults.MODEL_AAM_IMAGES}; 0: all)")
     add_train_options(p)
     p.set_defaults(func=run)
 
@@ -87,9 +99,9 @@ def select_training(
 
 
 def run(args: argparse.Namespace) -> int:
-    from aamcore.config import cache_dir, resolve_dataset
-    from aamcore.fitting.training.prepare import train_fitting_model
-    from aamcore.io import load_annotated_folder
+    from aamcore.config import cache_dir
+    from aamcore.fitting.training.data import training_set
+    from aamcore.fitting.training.prepare import MIRRORS, subset, train_fitting_model
     from aamcore.model.cache import cache_key
     from aamcore.model.file import read_header, save_model
     from aamcore.model.training import train_aam
@@ -97,25 +109,34 @@ def run(args: argparse.Namespace) -> int:
     from services.cli.model_cmd import print_summary
 
     config = config_from(args)
-    folder = resolve_dataset(args.data)
-    data = load_annotated_folder(folder, limit=args.limit)
+    data = training_set(args.data, args.limit)
     for error in data.errors:
         print(f"skipped: {error}", file=sys.stderr)
-    print(
-        f"{len(data.samples)} images of {folder} ({data.scheme.name}), {len(data.errors)} skipped",
-        file=sys.stderr,
-    )
+    if args.fit and args.mirror and data.scheme.name not in MIRRORS:
+        raise SystemExit(f"aamtrack train: --mirror needs a markup with a left-right "
+                         f"permutation ({', '.join(MIRRORS)}), {args.data} has "
+                         f"{data.scheme.name}: give --no-mirror")
     samples = select_training(data.samples, args.hold_out_subjects, args.train_fraction)
-    extra = {"hold_out": args.hold_out_subjects, "fraction": args.train_fraction, "fit": args.fit}
-    out = args.out or cache_dir() / f"{folder.name}-{cache_key(str(folder), config, extra)}.npz"
-    aam = train_aam(samples, data.scheme, config, progress=bar("appearance model"),
-                    source=str(folder))
+    parts = ", ".join(f"{f}{' (training split)' if s else ''}"
+                      for f, s in zip(data.folders, data.split, strict=True))
+    print(f"{len(samples)} faces of {parts} ({data.scheme.name}), {len(data.errors)} skipped",
+          file=sys.stderr)
+    few = subset(samples, args.aam_images or None)
+    extra = {"hold_out": args.hold_out_subjects, "fraction": args.train_fraction, "fit": args.fit,
+             "split": data.split, "limit": args.limit, "aam_images": args.aam_images,
+             "mirror": args.mirror}
+    folders = ",".join(str(f) for f in data.folders)
+    out = args.out or cache_dir() / f"{data.name}-{cache_key(folders, config, extra)}.npz"
+    aam = train_aam(few, data.scheme, config, progress=bar("appearance model"),
+                    source=args.data)
     aam.summary["skipped"] = data.errors + aam.summary["skipped"]
     if args.fit:
-        print(
-            "training the fitters (box mapping, update matrices, descent cascade)", file=sys.stderr
-        )
-        path = train_fitting_model(aam, samples, progress=bar("update matrices")).save(out)
+        print(f"training the fitters on {len(samples)} faces (box mapping, update matrices and "
+              f"descent cascade on {len(few)}, local-binary cascade on all"
+              f"{' and their mirror images' if args.mirror else ''})", file=sys.stderr)
+        model = train_fitting_model(aam, samples, bar=bar, mirror=args.mirror,
+                                    aam_images=args.aam_images or None)
+        path = model.save(out)
     else:
         path = save_model(aam, out)
     print_summary(read_header(path), path)

@@ -23,8 +23,12 @@ class FitterOptions(Options):
     model_images: int = option(defaults.MODEL_UPDATE_IMAGES, "images for the default model's "
                                "update matrices", metavar="N", check=in_range(1, 10000))
     algorithm: str = option(defaults.ALGORITHM, "fitting algorithm", choices=tuple(ALGORITHMS))
-    failure_test: str = option(defaults.FAILURE_TEST, "how a failed fit is recognised",
-                               choices=FAILURE_TESTS)
+    failure_test: str = option(defaults.FAILURE_TEST, "how a failed fit is recognised (auto: "
+                               "the learned quality score for local-binary, chi2 for the AAM "
+                               "methods)", choices=FAILURE_TESTS)
+    appearance: bool = option(True, "sample the AAM appearance of every good fit of a method "
+                              "that computes none (local-binary; one texture warp per fit), "
+                              "for the expression service")
     warp: str = option("auto", "where the image warp runs: auto (the GPU worker thread on a "
                        "hardware GL renderer, else the CPU), gpu (falls back to cpu) or cpu",
                        choices=WARPS)

@@ -11,7 +11,10 @@ seconds, the fitter detects locally for ``--local-for`` seconds (logged) and
 then asks the service again.
 
 Every frame taken gets a ``Fit``: a good one, a failed one (``failed`` with
-the reason), or ``failed`` with reason ``no face`` and no landmarks. The warp
+the reason), or ``failed`` with reason ``no face`` and no landmarks. With the
+default method (``local-binary``) the appearance is sampled only with
+``--appearance`` (the default; the stack turns it off when no expression is
+classified), else the fit carries an empty one. The warp
 runs on the GPU worker thread (:mod:`aamcore.warp.worker`) or the CPU; each
 fit names the path in ``warp_path``. A frame's size belongs to its run: a new
 run starts the tracking afresh, and a frame of another size than its run's
@@ -184,7 +187,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     log.info("warp on the %s (%s)", warp_path, getattr(fitter_warp, "renderer", ""))
     try:
-        fitter = Fitter(model, opts.algorithm, warp=fitter_warp, failure_test=opts.failure_test)
+        fitter = Fitter(model, opts.algorithm, warp=fitter_warp, failure_test=opts.failure_test,
+                        appearance=opts.appearance)
         warm_up(fitter)
         with Service(NAME, args.bus) as svc:
             serve(svc, fitter, warp_path, opts)

@@ -90,7 +90,8 @@ def prepare_models(opts: StackOptions) -> StackOptions:
     The fitter's model is ``--model`` or the default one; the expression
     service gets the same model and its classifier (``--classifier`` or the
     cached one, trained on first use; none when JAFFE cannot be had, and the
-    service then says why in its status).
+    service then says why in its status). The fitter samples the appearance
+    only for a classifier that reads it.
     """
     from aamcore.io.sample import DatasetError
     from services.fitter.service import model_path
@@ -112,7 +113,24 @@ def prepare_models(opts: StackOptions) -> StackOptions:
             except (DatasetError, OSError, ValueError) as exc:
                 log.warning("no expression classifier: %s", exc)
         services["expression"] = expression.replace(model=path, classifier=classifier)
+    # Only a classifier of the appearance c reads it: not sampled for nobody.
+    wanted = expression is not None and _reads_appearance(services["expression"].classifier)
+    services["fitter"] = services["fitter"].replace(appearance=fitter.appearance and wanted)
     return replace(opts, services=services)
+
+
+def _reads_appearance(classifier: str) -> bool:
+    """Whether the classifier file ``classifier`` classifies the AAM appearance (an unreadable
+    one does not: the expression service refuses it and says why)."""
+    if not classifier:
+        return False
+    from aamcore.expression.classifier_file import ClassifierFileError, ExpressionClassifier
+
+    try:
+        loaded = ExpressionClassifier.load(classifier)
+    except (ClassifierFileError, OSError, ValueError):
+        return False
+    return "appearance" in loaded.pipeline.features.blocks
 
 
 def service_specs(opts: StackOptions, bus: BusOptions) -> list[ServiceSpec]:

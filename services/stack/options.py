@@ -149,9 +149,27 @@ def stack_options(args: argparse.Namespace, base: StackOptions | None = None) ->
                          for name in ("fitter", "pose") if name in services})
     if "source" in services and not services["source"].has_input:
         raise OptionError("give the input: --video FILE, --camera INDEX or --url URL")
+    services.update(keep_every_fit(services))
     extra = {**base.extra, **extra_args(getattr(args, "set", []) or [])}
     return StackOptions(launch, services, extra, bool(getattr(args, "verbose", False)),
                         base.bus, base.wait_for)
+
+
+FAST_CAPACITY = 1024
+"""Fits the pose and expression services keep while busy when the source is paced ``fast``."""
+
+
+def keep_every_fit(services: dict[str, Any]) -> dict[str, Any]:
+    """With ``fast`` pacing (a file as fast as the fitter answers), the pose and expression
+    services left at their default capacity keep every fit (:data:`FAST_CAPACITY`): the
+    fitter outruns the pose estimate, and a file processed fast should give every frame
+    its pose and expression rather than the latest few."""
+    source = services.get("source")
+    if source is None or source.pace != "fast":
+        return {}
+    return {name: services[name].replace(capacity=FAST_CAPACITY)
+            for name in ("pose", "expression")
+            if name in services and services[name].capacity == SERVICES[name].options().capacity}
 
 
 def from_stack_file(path: str, host: str | None = None) -> StackOptions:

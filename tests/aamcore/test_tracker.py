@@ -100,3 +100,20 @@ def test_the_pose_estimator_can_be_chosen(
         assert r.success and r.pose_reliable and abs(r.yaw_deg - contour.yaw_deg) < 10.0
     with pytest.raises(PoseError, match="unknown pose estimator"):
         FaceTracker(model_path, pose_estimator="eos")
+
+
+def test_bad_frames_mid_stream_give_clear_results(model_path: Path, single_face: Path) -> None:
+    import cv2
+
+    from aamcore.io.video import video_frames
+
+    frames = video_frames(single_face)
+    tracker = FaceTracker(model_path)
+    assert all(tracker.process(f).success for f in frames[:5])
+    small = tracker.process(cv2.resize(frames[5], (320, 180)))  # another size: detected afresh
+    assert small.landmarks.shape in ((0, 2), (68, 2)) and np.all(np.isfinite(small.landmarks))
+    black = tracker.process(np.zeros_like(frames[6]))
+    assert not black.success and black.confidence == 0.0 and not black.pose_reliable
+    back = [tracker.process(f) for f in frames[7:12]]
+    assert any(r.success for r in back)
+    assert back[-1].success and back[-1].pose_reliable and back[-1].expression is None

@@ -20,7 +20,7 @@ DEPLOY = REPO_ROOT / "deploy"
 ZENOH_DIR = DEPLOY / "zenoh"
 IDENTITIES = ("router", "stack", "viewer", "rogue")
 """Certificates signed by the test CA; the common name of each is ``aamtrack-<name>``."""
-MODEL_LIMIT = 120
+MODEL_LIMIT = 300
 MODEL_IMAGES = 10
 ROUTER_START_TIMEOUT = 20.0
 

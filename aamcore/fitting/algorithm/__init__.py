@@ -3,9 +3,13 @@
 Every algorithm follows :class:`~aamcore.fitting.algorithm.base.Algorithm`:
 ``from_model(model, settings)`` does the costly precomputation once;
 ``run(image, c0, start)`` fits from an appearance and a placement and
-``track(image, previous)`` from the previous frame's fit, on a prepared image
-(see :meth:`aamcore.model.aam.AAM.prepare_image`). A new algorithm is one
-module here and one line in :data:`ALGORITHMS`.
+``track(image, previous)`` from the previous frame's fit, on an image prepared
+by its ``prepare`` (the AAM methods: :meth:`aamcore.model.aam.AAM.prepare_image`).
+A new algorithm is one module here and one line in :data:`ALGORITHMS`.
+
+``local-binary`` (the default) is a cascade of landmark-HOG and fern stages
+in a shape space (``local_binary``, with ``local_hog`` and ``ferns``); the
+others fit the AAM.
 
 The registry names classes by path, so that reading the names (command-line
 parsers) imports no algorithm code.
@@ -22,6 +26,7 @@ if TYPE_CHECKING:
 
 _PACKAGE = "aamcore.fitting.algorithm"
 ALGORITHMS: dict[str, str] = {
+    "local-binary": f"{_PACKAGE}.local_binary:LocalBinary",
     "supervised-descent": f"{_PACKAGE}.supervised_descent:SupervisedDescent",
     "fixed-jacobian": f"{_PACKAGE}.fixed_jacobian:FixedJacobian",
     "multi-resolution": f"{_PACKAGE}.multi_resolution:MultiResolution",

@@ -46,19 +46,33 @@ class ModelAlgorithm:
     settings : AlgorithmSettings, optional
     """
 
+    computes_appearance = True
+
     def __init__(self, aam: AAM, settings: AlgorithmSettings | None = None) -> None:
         settings = settings or AlgorithmSettings()
         self.aam = aam
         self.residual = ResidualFunction(aam, settings.warp)
         self.failure = settings.failure or FailureTest(aam.combined.pca.variances)
 
+    def prepare(self, image: np.ndarray, shape: np.ndarray | None = None) -> np.ndarray:
+        """The AAM's channels, equalised near ``shape`` if the AAM says so."""
+        return self.aam.prepare_image(image, shape)
+
 
 class Algorithm(Protocol):
     """A fitting algorithm: costly precomputation in its constructor, per-frame work in
-    :meth:`run` and :meth:`track`, both on an image prepared by
-    :meth:`aamcore.model.aam.AAM.prepare_image`."""
+    :meth:`run` and :meth:`track`, both on an image prepared by its :meth:`prepare`.
+
+    ``computes_appearance`` says whether its fits carry the AAM appearance ``c``
+    (the AAM methods) or an empty ``(0,)`` one (``local-binary``).
+    """
 
     name: str
+    computes_appearance: bool
+
+    def prepare(self, image: np.ndarray, shape: np.ndarray | None = None) -> np.ndarray:
+        """Convert a raw frame (BGR or grey) into what :meth:`run` and :meth:`track` read."""
+        ...
 
     @classmethod
     def from_model(cls, model: FittingModel, settings: AlgorithmSettings) -> Algorithm:

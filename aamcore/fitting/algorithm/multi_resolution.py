@@ -44,6 +44,8 @@ class MultiResolution:
         ``levels[l]`` fits images halved ``l`` times.
     """
 
+    computes_appearance = True
+
     def __init__(self, levels: list[FixedJacobian]) -> None:
         if not levels:
             raise ValueError("a multi-resolution fitter needs at least one level")
@@ -55,6 +57,10 @@ class MultiResolution:
         """One level per update matrix the model learned."""
         return cls([FixedJacobian.from_model(model, settings, level)
                     for level in range(len(model.updates))])
+
+    def prepare(self, image: np.ndarray, shape: np.ndarray | None = None) -> np.ndarray:
+        """As the full-resolution level prepares it."""
+        return self.levels[0].prepare(image, shape)
 
     def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
         """Fit from the previous frame's fit, at full resolution only."""

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -112,6 +112,7 @@ def train_descent(
     noise_scale: float = 1.25,
     min_spread: tuple[float, float, float, float] = (0.06, 0.06, 0.08, 0.08),
     seed: int = 0,
+    progress: Callable[[Iterable[int]], Iterable[int]] | None = None,
 ) -> DescentCascade:
     """Learn a descent cascade from training ``samples`` and their Haar ``boxes``.
 
@@ -120,8 +121,7 @@ def train_descent(
     aam : AAM
     samples : sequence of FaceSample
     boxes : sequence of (4,) arrays or None
-        The detection matched to each face, None where Haar missed it (the
-        landmark-box mapping then gives the start).
+        The detection matched to each face, None where Haar missed it.
     mapping : BoxToShapeMapping
     stages : int
         Regressions in the cascade.
@@ -131,13 +131,13 @@ def train_descent(
     strength : float
         Ridge penalty, relative to the features' mean energy.
     noise_scale : float
-        Widening of the observed start-pose spread for the random starts.
+        Widening of the observed start spread for the random starts.
     min_spread : (4,) floats
-        Least spread of the random starts: log scale, angle (radians), and x
-        and y shifts as fractions of the mean shape's width, so that the
-        cascade also learns to recover from starts worse than a good
-        detector gives (tracking after fast motion, displaced starts).
+        Least spread of the random starts: log scale, angle (radians), x and y
+        shifts (fractions of the mean shape's width).
     seed : int
+    progress : callable, optional
+        Wraps the stages' iteration (a progress bar).
     """
     rng = np.random.default_rng(seed)
     shape_model = aam.shape
@@ -147,7 +147,7 @@ def train_descent(
     poses = [shape_model.fit_points(s, iterations=2) for s in data.shapes]
     shapes = [sim.apply(shape_model.instance(b)) for b, sim in poses]
     pairs = list(zip(data.owners, range(len(shapes)), strict=True))
-    for _ in range(stages):
+    for _ in progress(range(stages)) if progress else range(stages):
         x = np.stack([fitter.features_at(data.images[k], shapes[j]) for k, j in pairs])
         y = np.stack([
             model_frame_step(fitter.basis, shapes[j], data.truths[k], poses[j][1])

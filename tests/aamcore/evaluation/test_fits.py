@@ -49,10 +49,12 @@ def test_held_out_tells_images_by_content_not_by_name(lfpw_fit_model_path, tmp_p
     import shutil
 
     from aamcore.fitting.model import FittingModel
+    from aamcore.fitting.training.data import training_set
     from aamcore.io import load_annotated_folder
 
     aam = FittingModel.load(lfpw_fit_model_path).aam
-    trained = [s for s in load_annotated_folder(aam.summary["source"].split(" [")[0]).samples
+    # the source names the sets (``lfpw,helen,afw [first 300]``)
+    trained = [s for s in training_set(aam.summary["source"].split(" [")[0]).samples
                if s.image_id() in set(aam.summary["train_images"])][:2]
     other = load_annotated_folder(trained[0].image_path.parent, limit=400).samples[-1]
     assert other.image_id() not in set(aam.summary["train_images"])

@@ -102,3 +102,53 @@ def synthetic_mapping(synthetic_aam: AAM, synthetic_faces: SyntheticFaces) -> Bo
 def point_error(points: np.ndarray, truth: np.ndarray) -> float:
     """Mean landmark distance in pixels."""
     return float(np.linalg.norm(points - truth, axis=1).mean())
+
+
+def textured_frames(n: int, size: tuple[int, int] = (120, 160), seed: int = 3) -> list[np.ndarray]:
+    """Grey frames (H, W) uint8 of blurred noise and blobs: no face in them."""
+    rng = np.random.default_rng(seed)
+    frames = []
+    for _ in range(n):
+        image = cv2.GaussianBlur(rng.integers(0, 255, size, np.uint8), (0, 0), 3.0)
+        for _ in range(6):
+            centre = tuple(int(v) for v in rng.integers(0, min(size), 2))
+            cv2.circle(image, centre, int(rng.integers(4, 20)), int(rng.integers(0, 255)), -1)
+        frames.append(image)
+    return frames
+
+
+@pytest.fixture(scope="session")
+def synthetic_training_faces(synthetic_faces: SyntheticFaces, synthetic_mapping: BoxToShapeMapping):
+    """The synthetic training faces as the local-binary training takes them: grey, started
+    from their landmark boxes through the mapping (no detector), no mirror (16 points)."""
+    from aamcore.fitting.training.faces import prepare_faces
+
+    train = synthetic_faces.train
+    greys = [cv2.cvtColor(s.load_image(), cv2.COLOR_BGR2GRAY) for s in train]
+    starts = [synthetic_mapping.place(landmark_box(s.points), "landmarks") for s in train]
+    return prepare_faces(greys, [1.0] * len(train), [s.points for s in train], starts,
+                         [False] * len(train), None)
+
+
+@pytest.fixture(scope="session")
+def synthetic_binary_config():
+    """A small local-binary recipe for the synthetic faces (about a second to train)."""
+    from aamcore.fitting.training.binary import BinaryTrainConfig
+    from aamcore.fitting.training.ferns import FernConfig
+    from aamcore.fitting.training.hog import HogConfig
+    from aamcore.fitting.training.quality import QualityConfig
+
+    return BinaryTrainConfig(
+        coarse=(HogConfig(24.0, 16), HogConfig(32.0, 16)),
+        tracking=(FernConfig(0.3, n_ferns=3), FernConfig(0.15, n_ferns=3)),
+        quality=QualityConfig(FernConfig(0.3, n_ferns=2, depth=4), per_face=6, per_no_face=10),
+        shape_variance=0.98, n_jobs=1, threshold=-2.0)
+
+
+@pytest.fixture(scope="session")
+def synthetic_binary(synthetic_training_faces, synthetic_binary_config, synthetic_aam):
+    """The local-binary cascade of the synthetic faces."""
+    from aamcore.fitting.training.binary import train_binary_cascade
+
+    return train_binary_cascade(synthetic_training_faces, synthetic_binary_config,
+                                textured_frames(6), eye_corners=synthetic_aam.scheme.eye_corners)

@@ -112,3 +112,29 @@ def test_bad_starts_give_clear_results(imm_fit_model, imm_test) -> None:
 def test_unknown_algorithm(imm_fit_model) -> None:
     with pytest.raises(ValueError, match="unknown fitting algorithm"):
         Fitter(imm_fit_model, "newton")
+
+
+def test_failure_tests_and_appearance_of_each_kind_of_method(imm_fit_model, imm_test) -> None:
+    import math
+
+    from aamcore.detection.haar import HaarFaceDetector
+
+    image = imm_test[0].load_image()
+    box = HaarFaceDetector().detect(image)[0]
+    n = imm_fit_model.aam.n_appearance
+    default = Fitter(imm_fit_model)
+    assert default.name == "local-binary" and default.failure_test == "quality"
+    plain = default.fit_box(image, box)
+    assert plain.c.shape == (0,) and math.isfinite(plain.score) and plain.ok
+    assert plain.confidence == pytest.approx(default.quality.confidence(plain.score))
+    sampled = Fitter(imm_fit_model, appearance=True).fit_box(image, box)
+    assert sampled.c.shape == (n,) and math.isfinite(sampled.error)
+    assert np.allclose(sampled.points, plain.points)
+    chi2 = Fitter(imm_fit_model, failure_test="chi2")
+    judged = chi2.fit_box(image, box)
+    assert judged.c.shape == (n,) and chi2.quality is None
+    assert judged.failed or judged.confidence == pytest.approx(chi2.failure.confidence(judged.c))
+    aam = Fitter(imm_fit_model, "fixed-jacobian", failure_test="quality")
+    scored = aam.fit_box(image, box)
+    assert math.isfinite(scored.score) and scored.c.shape == (n,)
+    assert Fitter(imm_fit_model, "fixed-jacobian").failure_test == "chi2"

@@ -41,7 +41,9 @@ def frames(video: Path, indices: tuple[int, ...]) -> list[np.ndarray]:
     return out
 
 
-def test_gpu_and_cpu_warps_give_the_same_fit(model_path: Path, single_face: Path) -> None:
+@pytest.mark.parametrize("algorithm", ["local-binary", "supervised-descent"])
+def test_gpu_and_cpu_warps_give_the_same_fit(model_path: Path, single_face: Path,
+                                             algorithm: str) -> None:
     model = FittingModel.load(model_path)
     images = frames(single_face, (0, 20, 40, 60))
     box = HaarFaceDetector().detect(images[0])[0]
@@ -50,7 +52,8 @@ def test_gpu_and_cpu_warps_give_the_same_fit(model_path: Path, single_face: Path
         warp, path = make_warp(model.aam, prefer)
         try:
             assert path == prefer, "no GL context: the GPU path cannot be compared"
-            fitter = Fitter(model, warp=warp)
+            # the default method warps only to sample the appearance
+            fitter = Fitter(model, algorithm, warp=warp, appearance=True)
             fits[path] = [fitter.fit_box(image, box) for image in images]
         finally:
             warp.close()
@@ -82,6 +85,12 @@ def test_fit_messages_for_good_failed_lost_and_broken_results() -> None:
     broken = fit_message(header, _result(np.full((68, 2), np.nan)), "ibug68", "cpu", (640, 480))
     assert broken.failed and broken.failure_reason == "non-finite result"
     assert broken.landmarks.shape == (0, 2)
+    # the default method's fits carry no appearance and no texture error
+    bare = FitResult(points, np.zeros(0), Similarity(1.1, 0.0, 5.0, 6.0), math.nan, 3,
+                     confidence=0.9, score=-3.5)
+    message = decode(encode(fit_message(header, bare, "ibug68", "cpu", size)), "fit")
+    assert not message.failed and message.appearance.shape == (0,)
+    assert math.isnan(message.texture_error) and message.confidence == pytest.approx(0.9)
 
 
 def test_without_a_detector_service_the_fitter_detects_locally_and_says_so(

@@ -40,3 +40,15 @@ def test_set_passes_an_argument_to_one_service() -> None:
     assert opts.extra == {"fitter": ["--detect-timeout=2"]}
     with pytest.raises(OptionError, match="SERVICE:ARG"):
         parse_run_args(["--video", "clip.mp4", "--set", "nobody:--x"])
+
+
+def test_fast_pacing_keeps_every_fit_for_pose_and_expression() -> None:
+    from services.stack.options import FAST_CAPACITY
+
+    fast = parse_run_args(["--video", "clip.mp4", "--pace", "fast"]).services
+    assert fast["pose"].capacity == fast["expression"].capacity == FAST_CAPACITY
+    live = parse_run_args(["--video", "clip.mp4"]).services
+    assert live["pose"].capacity == live["expression"].capacity == 8
+    chosen = parse_run_args(["--video", "clip.mp4", "--pace", "fast"])
+    assert chosen.services["fitter"].algorithm == "local-binary"
+    assert chosen.services["fitter"].failure_test == "auto" and chosen.services["fitter"].appearance

@@ -13,6 +13,7 @@ import pytest
 from aamcore.fitting.algorithm import ALGORITHMS, algorithm_class
 from aamcore.fitting.algorithm.base import AlgorithmSettings
 from aamcore.fitting.algorithm.fixed_jacobian import FixedJacobian
+from aamcore.fitting.algorithm.local_binary import LocalBinary
 from aamcore.fitting.algorithm.multi_resolution import MultiResolution, scale_similarity
 from aamcore.fitting.algorithm.project_out_ic import ProjectOutInverseCompositional, shape_basis
 from aamcore.fitting.algorithm.supervised_descent import SupervisedDescent, model_frame_step
@@ -52,7 +53,8 @@ def test_the_registry_names_every_algorithm_class() -> None:
     assert algorithm_class("multi-resolution") is MultiResolution
     assert algorithm_class("project-out-ic") is ProjectOutInverseCompositional
     assert algorithm_class("supervised-descent") is SupervisedDescent
-    assert len(ALGORITHMS) == 4
+    assert algorithm_class("local-binary") is LocalBinary
+    assert len(ALGORITHMS) == 5
     with pytest.raises(ValueError, match="unknown fitting algorithm 'newton'"):
         algorithm_class("newton")
 

@@ -1,0 +1,320 @@
+"""Cascaded regression on local binary features, in a shape space: the default tracker.
+
+From a detection (acquisition) the start shape goes through coarse
+landmark-HOG stages (:mod:`~aamcore.fitting.algorithm.local_hog`), then the
+fern stages (:mod:`~aamcore.fitting.algorithm.ferns`); from the previous
+frame's landmarks (tracking) through the fern stages alone. Every step is
+taken in the basis of :class:`~aamcore.fitting.shape_space.ShapeSpace` and the
+shape projected onto the shape model (3 sd) after each coarse stage and after
+the last fern stage. One more fern stage regresses the fit's ``log(NME)`` (its
+quality score); above the model's calibrated threshold the fit has failed.
+
+The method reads the grey pixels of the face's region only (converted once per
+frame) and computes no AAM appearance ``c`` (its ``FitResult.c`` is ``(0,)``;
+:class:`~aamcore.fitting.fitter.Fitter` samples it where asked).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import cv2
+import numpy as np
+
+from aamcore.detection.haar import to_grey_uint8
+from aamcore.fitting.algorithm.base import AlgorithmSettings
+from aamcore.fitting.algorithm.ferns import FernRunner, FernStage
+from aamcore.fitting.algorithm.local_hog import HogStage, LandmarkHog
+from aamcore.fitting.failure import QualityTest
+from aamcore.fitting.result import FitResult
+from aamcore.fitting.shape_space import ShapeSpace
+from aamcore.model.aam import AAM
+from aamcore.model.similarity import Similarity
+
+if TYPE_CHECKING:
+    from aamcore.fitting.model import FittingModel
+
+MIN_CONTRAST = 8
+"""Least spread (grey levels) of the pixels the quality stage reads for a fit to count:
+a black, blank or saturated region holds no face."""
+MARGIN = 1.1
+"""Region read around the shape, in stage radii (pixel pairs lie within a radius)."""
+
+
+@dataclass(frozen=True)
+class BinaryCascade:
+    """What the local-binary method learned.
+
+    Attributes
+    ----------
+    space : ShapeSpace
+    coarse : list of HogStage
+        Run from a detection start, before ``tracking``.
+    tracking : list of FernStage
+        Run from a detection after ``coarse``, and from the previous frame's landmarks.
+    quality : FernStage
+        Its output (1,) is the predicted ``log(NME)`` of the landmarks it is given.
+    threshold : float
+        A fit whose quality score is above it has failed.
+    report : dict
+        How it was trained (JSON-ready).
+    """
+
+    space: ShapeSpace
+    coarse: list[HogStage]
+    tracking: list[FernStage]
+    quality: FernStage
+    threshold: float
+    report: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not self.tracking:
+            raise ValueError("a local-binary cascade needs at least one fern stage")
+        q = self.space.basis.shape[1]
+        for k, stage in enumerate(self.tracking):
+            if stage.bias.shape != (q,) or stage.n_points != self.space.n_points:
+                raise ValueError(f"fern stage {k} does not fit the shape space ({q} directions, "
+                                 f"{self.space.n_points} points)")
+        if self.quality.bias.shape != (1,) or not math.isfinite(self.threshold):
+            raise ValueError("the quality stage must give one score and the threshold be finite")
+
+    def arrays(self, prefix: str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """The JSON header and the named arrays of the cascade, for a model file."""
+        arrays = self.space.arrays(f"{prefix}_space")
+        for k, stage in enumerate(self.coarse):
+            arrays.update(stage.arrays(f"{prefix}_coarse{k}"))
+        for k, stage in enumerate(self.tracking):
+            arrays.update(stage.arrays(f"{prefix}_fern{k}"))
+        arrays.update(self.quality.arrays(f"{prefix}_quality"))
+        header = {"coarse": len(self.coarse), "tracking": len(self.tracking),
+                  "threshold": self.threshold, "report": self.report}
+        return header, arrays
+
+    @classmethod
+    def from_arrays(cls, header: dict[str, Any], arrays: dict[str, np.ndarray], prefix: str
+                    ) -> BinaryCascade:
+        """The cascade written by :meth:`arrays`."""
+        return cls(
+            ShapeSpace.from_arrays(arrays, f"{prefix}_space"),
+            [HogStage.from_arrays(arrays, f"{prefix}_coarse{k}")
+             for k in range(int(header["coarse"]))],
+            [FernStage.from_arrays(arrays, f"{prefix}_fern{k}")
+             for k in range(int(header["tracking"]))],
+            FernStage.from_arrays(arrays, f"{prefix}_quality"),
+            float(header["threshold"]), dict(header.get("report", {})),
+        )
+
+
+@dataclass
+class _Region:
+    """The grey pixels the stages read: flat uint8, ``width`` wide, ``origin`` in the frame."""
+
+    pixels: np.ndarray
+    width: int
+    limit: tuple[float, float]
+    origin: np.ndarray
+
+
+class LocalBinary:
+    """Fit by a :class:`BinaryCascade`.
+
+    Parameters
+    ----------
+    cascade : BinaryCascade
+    aam : AAM, optional
+        Its mean shape gives the results' similarity (the AAM's model frame)
+        and the start shape of :meth:`run`; the cascade's mean shape without one.
+    settings : AlgorithmSettings, optional
+        With a failure test other than ``quality`` the cascade's threshold is
+        not applied (the fitter then tests the appearance it samples).
+    """
+
+    name = "local-binary"
+    computes_appearance = False
+
+    def __init__(self, cascade: BinaryCascade, aam: AAM | None = None,
+                 settings: AlgorithmSettings | None = None) -> None:
+        settings = settings or AlgorithmSettings()
+        self.cascade = cascade
+        self.aam = aam
+        space = cascade.space
+        self.space = space
+        self.test = QualityTest(cascade.threshold)
+        self.apply_threshold = settings.failure is None or settings.failure.kind == "quality"
+        self._sim = self._similarity_matrix(space.mean)
+        self._frame = aam.shape.mean_shape if aam is not None else space.mean
+        self._frame_sim = self._similarity_matrix(self._frame)
+        self._mean = space.mean
+        self._modes, self._modes_t = space.modes, np.ascontiguousarray(space.modes.T)
+        self._mean_proj = space.mean.ravel() @ space.modes
+        self._limits, self._neg_limits = space.limits, -space.limits
+        self._basis_t = np.ascontiguousarray(space.basis.T)
+        unit = space.eye_distance
+        self._hogs = [LandmarkHog(space.mean, c.iod, c.window, c.cells, unit)
+                      for c in cascade.coarse]
+        self._ferns = [FernRunner(s) for s in cascade.tracking]
+        self._quality = FernRunner(cascade.quality)
+        self._reach = MARGIN * max(s.radius for s in [*cascade.tracking, cascade.quality])
+
+    @classmethod
+    def from_model(cls, model: FittingModel, settings: AlgorithmSettings) -> LocalBinary:
+        """The cascade ``model`` learned.
+
+        Raises
+        ------
+        ValueError
+            When the model has no local-binary cascade.
+        """
+        if model.binary is None:
+            raise ValueError("this model has no local-binary cascade: train it with "
+                             "`aamtrack train --fit` (68-point data)")
+        return cls(model.binary, model.aam, settings)
+
+    @staticmethod
+    def _similarity_matrix(mean: np.ndarray) -> np.ndarray:
+        """(2N, 2) matrix giving a shape's least-squares ``(a, b)`` against centred ``mean``."""
+        m = mean - mean.mean(axis=0)
+        norm = float(np.sum(m * m))
+        return (np.stack([m.ravel(), np.stack([-m[:, 1], m[:, 0]], 1).ravel()]) / norm).T
+
+    def prepare(self, image: np.ndarray, shape: np.ndarray | None = None) -> np.ndarray:
+        """``image`` as the stages read it: uint8 BGR or grey (other inputs converted to grey)."""
+        if image.dtype == np.uint8 and (image.ndim == 2 or (image.ndim == 3
+                                                            and image.shape[2] == 3)):
+            return image
+        return to_grey_uint8(image)
+
+    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> FitResult:
+        """Fit from the mean shape of ``(c0, start)`` (the AAM's, if the model has one)."""
+        if self.aam is not None:
+            shape = self.aam.shape_instance(c0, start)
+        else:
+            shape = start.apply(self._frame)
+        return self.fit_shape(image, shape)
+
+    def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
+        """Fit from the previous frame's landmarks with the fern stages."""
+        return self.track_points(image, previous.points)
+
+    def fit_shape(self, image: np.ndarray, start: np.ndarray) -> FitResult:
+        """Fit from a start shape (N, 2) on a detection: coarse stages, then the fern stages."""
+        start = np.asarray(start, np.float64)
+        if not np.all(np.isfinite(start)):
+            return self._failed(start, "non-finite start shape")
+        shape = self.project(start)
+        seconds = []
+        for stage, hog in zip(self.cascade.coarse, self._hogs, strict=True):
+            begun = time.perf_counter()
+            a, b = (shape.ravel() @ self._sim).tolist()
+            move = (hog.step(stage, image, shape) @ self._basis_t).reshape(-1, 2)
+            shape = self.project(shape + move @ np.array([[a, b], [-b, a]]))
+            seconds.append(time.perf_counter() - begun)
+        return self._fern_fit(image, shape, seconds)
+
+    def track_points(self, image: np.ndarray, previous: np.ndarray) -> FitResult:
+        """Fit from landmarks (N, 2) of the previous frame with the fern stages."""
+        previous = np.asarray(previous, np.float64)
+        if not np.all(np.isfinite(previous)):
+            return self._failed(previous, "non-finite start shape")
+        return self._fern_fit(image, previous, [])
+
+    def score(self, image: np.ndarray, points: np.ndarray) -> float:
+        """Quality score of landmarks ``points`` (N, 2): the predicted log NME (high: poor fit
+        or no face; infinite where the region holds no contrast or lies outside ``image``)."""
+        region = self.region(image, points)
+        if region is None:
+            return math.inf
+        return self._score(region, points - region.origin)[0]
+
+    def region(self, image: np.ndarray, shape: np.ndarray) -> _Region | None:
+        """The grey region of ``image`` the stages read around ``shape`` (N, 2), None when it
+        lies outside the frame."""
+        a, b = (shape.ravel() @ self._sim).tolist()
+        reach = self._reach * math.hypot(a, b)
+        (xlo, ylo), (xhi, yhi) = shape.min(axis=0).tolist(), shape.max(axis=0).tolist()
+        height, width = image.shape[:2]
+        x0, y0 = max(math.floor(xlo - reach), 0), max(math.floor(ylo - reach), 0)
+        x1, y1 = min(math.ceil(xhi + reach) + 1, width), min(math.ceil(yhi + reach) + 1, height)
+        if x1 - x0 < 2 or y1 - y0 < 2:
+            return None
+        roi = image[y0:y1, x0:x1]
+        if roi.ndim == 3:
+            roi = cv2.cvtColor(roi, cv2.COLOR_BGR2GRAY)
+        pixels = np.ascontiguousarray(roi).ravel()
+        return _Region(pixels, x1 - x0, (x1 - x0 - 1.0, y1 - y0 - 1.0),
+                       np.array([x0, y0], dtype=np.float64))
+
+    def project(self, shape: np.ndarray) -> np.ndarray:
+        """``shape`` (N, 2) projected onto the shape model, parameters limited to 3 sd."""
+        a, b = (shape.ravel() @ self._sim).tolist()
+        centre = shape.mean(axis=0)
+        s2 = a * a + b * b
+        model = (shape - centre) @ np.array([[a / s2, -b / s2], [b / s2, a / s2]])
+        params = model.ravel() @ self._modes
+        params -= self._mean_proj
+        np.minimum(params, self._limits, out=params)
+        np.maximum(params, self._neg_limits, out=params)
+        fitted = (params @ self._modes_t).reshape(-1, 2)
+        fitted += self._mean
+        return fitted @ np.array([[a, b], [-b, a]]) + centre
+
+    def _rot(self, shape: np.ndarray) -> np.ndarray:
+        a, b = shape.ravel() @ self._sim
+        return np.array([[a, -b], [b, a]])
+
+    def _fern_fit(self, image: np.ndarray, shape: np.ndarray, seconds: list[float]
+                  ) -> FitResult:
+        """The fern stages from ``shape`` (N, 2), projection, quality score, result."""
+        region = self.region(image, shape)
+        if region is None:
+            return self._failed(shape, "the face lies outside the frame", seconds)
+        current = shape - region.origin
+        for runner in self._ferns:
+            begun = time.perf_counter()
+            rot = self._rot(current)
+            dq = runner.output(runner.values(region.pixels, region.width, region.limit,
+                                             current, rot))
+            current = current + (dq @ self._basis_t).reshape(-1, 2) @ rot.T
+            seconds.append(time.perf_counter() - begun)
+        current = self.project(current)
+        score, contrast = self._score(region, current)
+        return self._result(current + region.origin, seconds, score, contrast)
+
+    def _score(self, region: _Region, shape: np.ndarray) -> tuple[float, int]:
+        """Quality score at ``shape`` (region pixels) and the spread of the pixels it read."""
+        values = self._quality.values(region.pixels, region.width, region.limit, shape,
+                                      self._rot(shape))
+        contrast = int(values.max()) - int(values.min())
+        if contrast < MIN_CONTRAST:
+            return math.inf, contrast
+        return float(self._quality.output(values)[0]), contrast
+
+    def _similarity(self, points: np.ndarray) -> Similarity:
+        """Least-squares placement of the model frame's mean shape on ``points`` (N, 2)."""
+        a, b = (points.ravel() @ self._frame_sim).tolist()
+        cx, cy = (points.mean(axis=0) - np.array([[a, -b], [b, a]])
+                  @ self._frame.mean(axis=0)).tolist()
+        return Similarity(a, b, cx, cy)
+
+    def _result(self, points: np.ndarray, seconds: list[float], score: float, contrast: int
+                ) -> FitResult:
+        reason = ""
+        if not np.all(np.isfinite(points)):
+            reason = "non-finite shape"
+        elif contrast < MIN_CONTRAST:
+            reason = f"no contrast around the landmarks ({contrast} grey levels)"
+        elif self.apply_threshold:
+            reason = self.test.reason(score)
+        similarity = self._similarity(points) if not reason.startswith("non") else Similarity()
+        confidence = 0.0 if reason else self.test.confidence(score)
+        return FitResult(points, np.zeros(0), similarity, math.nan, len(seconds), True,
+                         bool(reason), reason, seconds, [], confidence, score)
+
+    def _failed(self, shape: np.ndarray, reason: str, seconds: list[float] | None = None
+                ) -> FitResult:
+        return FitResult(np.asarray(shape, np.float64), np.zeros(0), Similarity(), math.nan,
+                         len(seconds or []), False, True, reason, seconds or [], [], 0.0,
+                         math.inf)

@@ -1,0 +1,197 @@
+"""Learning the whole local-binary cascade: shape space, coarse stages, fern stages, quality.
+
+The recipe of the tracking research (``/work/scratch/tracking/REPORT.md``, v3):
+a 99.5 % shape space of the training shapes and their mirrors; 5 starts per
+face for the 6 coarse landmark-HOG stages, the real one (its Haar box through
+the box-to-shape mapping) and 4 drawn like the observed start errors widened by
+1.25; 3 fern stages (4 ferns of depth 5 per landmark) trained on the truth moved
+as frame-to-frame motion moves it, cross-fitted in 2 folds of photos; one fern
+stage regressing ``log(NME)`` on shapes from good to far off and on frames
+without a face; the failure threshold calibrated on held-out fits.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from aamcore.fitting.algorithm.local_binary import BinaryCascade
+from aamcore.fitting.shape_space import ShapeSpace
+from aamcore.fitting.training.faces import PackedImages, TrainingFace
+from aamcore.fitting.training.ferns import FernConfig, Samples, train_fern_cascade
+from aamcore.fitting.training.hog import HogConfig, train_hog_cascade
+from aamcore.fitting.training.perturb import perturbed_starts, placed_on_no_face, start_noise
+from aamcore.fitting.training.quality import (
+    NO_FACE_NME,
+    QualityConfig,
+    quality_samples,
+    train_quality_stage,
+)
+
+Bar = Callable[[str], Callable[[Iterable[Any]], Iterable[Any]]]
+"""A progress-bar factory: ``bar(desc)(items)`` (:func:`aamcore.progress.bar`)."""
+
+THRESHOLD = -2.47
+"""Fit-quality threshold (predicted log NME; exp(-2.47) = 0.085) of the research's final
+model, calibrated to keep 99 % of its good (NME < 0.08) Haar fits on one half of the
+held-out photos; ``bench/bench_fit_lfpw.py`` reports what it keeps and rejects per set."""
+
+
+@dataclass(frozen=True)
+class BinaryTrainConfig:
+    """Everything :func:`train_binary_cascade` learns from.
+
+    Attributes
+    ----------
+    coarse : tuple of HogConfig
+        The coarse stages, run first from a detection.
+    hog_ridge : float
+        Their ridge penalty (fraction of the Gram matrix's mean diagonal).
+    tracking : tuple of FernConfig
+        The fern stages (from a detection after ``coarse``, and from the
+        previous frame's landmarks).
+    quality : QualityConfig
+    starts : int
+        Starts per face for the coarse stages: the real one and random ones
+        drawn like it (the observed spread, widened by ``noise_scale``).
+    noise_scale : float
+    track_starts : int
+        Starts per face for the fern stages.
+    track_noise : (5,) floats
+        Spread of those starts around the truth: log scale, angle (radians), x
+        and y shift (fractions of the eye-corner distance) and shape
+        parameters (fractions of their sd).
+    shape_variance : float
+        Variance the shape space keeps.
+    folds : int
+        Cross-fitting folds of the fern stages (by photo; 1: in-sample).
+    threshold : float
+        The failure threshold stored with the cascade.
+    seed : int
+    n_jobs : int
+        Threads for the descriptors and the ferns.
+    """
+
+    coarse: tuple[HogConfig, ...] = (
+        HogConfig(30.0, 32), HogConfig(40.0, 32), HogConfig(50.0, 32),
+        HogConfig(60.0, 32), HogConfig(60.0, 24), HogConfig(70.0, 24),
+    )
+    hog_ridge: float = 1.0
+    tracking: tuple[FernConfig, ...] = (FernConfig(0.2), FernConfig(0.12), FernConfig(0.08))
+    quality: QualityConfig = QualityConfig()
+    starts: int = 5
+    noise_scale: float = 1.25
+    track_starts: int = 4
+    track_noise: tuple[float, float, float, float, float] = (0.04, 0.04, 0.05, 0.05, 0.3)
+    shape_variance: float = 0.995
+    folds: int = 2
+    threshold: float = THRESHOLD
+    seed: int = 0
+    n_jobs: int = 2
+
+    def to_json(self) -> dict[str, Any]:
+        """The configuration as JSON-ready data (for the model's report and cache keys)."""
+        return asdict(self)
+
+
+def _no_bar(desc: str) -> Callable[[Iterable[Any]], Iterable[Any]]:
+    return lambda items: items
+
+
+def coarse_samples(space: ShapeSpace, faces: Sequence[TrainingFace], config: BinaryTrainConfig,
+                   rng: np.random.Generator) -> tuple[Samples, dict[str, Any]]:
+    """The coarse stages' samples: each face's real start and random ones drawn like the
+    real starts of detected faces (their spread widened by ``noise_scale``)."""
+    truths = np.stack([f.points for f in faces])
+    real = np.stack([f.start for f in faces])
+    hit = np.array([f.detected for f in faces])
+    chosen = hit if hit.any() else np.ones(len(faces), bool)
+    mean, sd = start_noise(space, real[chosen], truths[chosen])
+    owners = np.repeat(np.arange(len(faces)), config.starts)
+    starts = perturbed_starts(space, truths[owners], mean, sd * config.noise_scale, rng)
+    starts[:: config.starts] = real
+    report = {"detected": float(hit.mean()), "start_noise_mean": mean.tolist(),
+              "start_noise_sd": sd.tolist()}
+    return Samples(owners, truths[owners], space.project(starts)), report
+
+
+def tracking_samples(space: ShapeSpace, faces: Sequence[TrainingFace], config: BinaryTrainConfig,
+                     rng: np.random.Generator) -> Samples:
+    """The fern stages' samples: the truth moved as frame-to-frame motion moves it, in
+    cross-fitting folds of photos."""
+    truths = np.stack([f.points for f in faces])
+    ls, ang, dx, dy, shape_sd = config.track_noise
+    owners = np.repeat(np.arange(len(faces)), config.track_starts)
+    unit = space.eye_distance
+    sd = np.array([ls, ang, dx * unit, dy * unit])
+    starts = perturbed_starts(space, truths[owners], np.zeros(4), sd, rng, shape_sd=shape_sd)
+    folds = None
+    if config.folds > 1:
+        photos = np.array([f.photo for f in faces])
+        fold_of = np.random.default_rng(config.seed + 7).permutation(photos.max() + 1)
+        folds = (fold_of % config.folds)[photos[owners]]
+    return Samples(owners, truths[owners], starts, folds)
+
+
+def quality_stage_of(space: ShapeSpace, faces: Sequence[TrainingFace],
+                     no_faces: Sequence[np.ndarray], config: BinaryTrainConfig,
+                     rng: np.random.Generator):
+    """The quality stage, from perturbed shapes on the faces and shapes on ``no_faces``."""
+    truths = np.stack([f.points for f in faces])
+    owners, shapes, nme = quality_samples(space, truths, config.quality, rng)
+    greys = [f.grey for f in faces]
+    if no_faces:
+        sizes = [(g.shape[1], g.shape[0]) for g in no_faces]
+        nf_owners, nf_shapes = placed_on_no_face(space, sizes, config.quality.per_no_face, rng)
+        owners = np.concatenate([owners, nf_owners + len(faces)])
+        shapes = np.concatenate([shapes, nf_shapes])
+        nme = np.concatenate([nme, np.full(len(nf_owners), NO_FACE_NME)])
+        greys += list(no_faces)
+    return train_quality_stage(PackedImages.pack(greys), owners, shapes, nme, space,
+                               config.quality, rng, config.n_jobs)
+
+
+def train_binary_cascade(
+    faces: Sequence[TrainingFace], config: BinaryTrainConfig = BinaryTrainConfig(),
+    no_faces: Sequence[np.ndarray] = (), bar: Bar | None = None,
+    eye_corners: tuple[int, int] = (36, 45),
+) -> BinaryCascade:
+    """Learn the shape space, the coarse and fern stages and the quality stage.
+
+    Parameters
+    ----------
+    faces : sequence of TrainingFace
+        Mirrored ones included (:func:`~aamcore.fitting.training.faces.prepare_faces`).
+    config : BinaryTrainConfig
+    no_faces : sequence of (H, W) uint8 arrays
+        Grey frames without a face, for the quality stage.
+    bar : callable, optional
+        Progress-bar factory, one bar per phase.
+    eye_corners : (int, int)
+        The markup's outer eye corners (:attr:`LandmarkScheme.eye_corners`).
+    """
+    bar = bar or _no_bar
+    begun = time.perf_counter()
+    rng = np.random.default_rng(config.seed)
+    space = ShapeSpace.train(np.stack([f.points for f in faces]), config.shape_variance,
+                             eye_corners)
+    samples, report = coarse_samples(space, faces, config, rng)
+    greys = [f.grey for f in faces]
+    coarse = train_hog_cascade(greys, samples, space, config.coarse, config.hog_ridge,
+                               config.n_jobs, bar("coarse HOG stages"))
+    report["coarse_seconds"] = time.perf_counter() - begun
+    samples = tracking_samples(space, faces, config, rng)
+    ferns = train_fern_cascade(PackedImages.pack(greys), samples, space, config.tracking,
+                               np.random.default_rng(config.seed + 2), config.n_jobs,
+                               bar("fern stages"))
+    report["fern_seconds"] = time.perf_counter() - begun - report["coarse_seconds"]
+    quality = quality_stage_of(space, faces, no_faces, config,
+                               np.random.default_rng(config.seed + 3))
+    report.update(faces=len(faces), shape_modes=int(space.modes.shape[1]),
+                  no_face_frames=len(no_faces), seconds=time.perf_counter() - begun,
+                  config=config.to_json())
+    return BinaryCascade(space, coarse, ferns, quality, config.threshold, report)

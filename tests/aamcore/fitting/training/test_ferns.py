@@ -1,0 +1,75 @@
+"""aamcore.fitting.training.ferns: the sparse ridge, the ferns' leaves, a stage that helps."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aamcore.fitting.shape_space import ShapeSpace
+from aamcore.fitting.training.faces import PackedImages
+from aamcore.fitting.training.ferns import (
+    FernConfig,
+    Samples,
+    fern_leaves,
+    landmark_ferns,
+    leaf_ridge,
+    random_pairs,
+    train_fern_stage,
+)
+from aamcore.fitting.training.perturb import perturbed_starts
+
+
+def test_pairs_lie_in_the_disc() -> None:
+    pairs = random_pairs(np.random.default_rng(0), 500, 3.0)
+    assert pairs.shape == (500, 4)
+    assert np.all(np.hypot(pairs[:, 0::2], pairs[:, 1::2]) <= 3.0 + 1e-12)
+
+
+def test_leaf_ridge_matches_the_dense_solve() -> None:
+    rng = np.random.default_rng(1)
+    n, t, leaves_per = 300, 4, 8
+    leaves = rng.integers(0, leaves_per, (n, t)) + np.arange(t) * leaves_per
+    targets = rng.normal(size=(n, 3))
+    weights, bias = leaf_ridge(leaves, t * leaves_per, targets, 0.5, 200)
+    x = np.zeros((n, t * leaves_per))
+    x[np.repeat(np.arange(n), t), leaves.ravel()] = 1.0
+    counts = x.sum(axis=0)
+    alpha = 0.5 * counts[counts > 0].mean()
+    dense = np.linalg.solve(x.T @ x + alpha * np.eye(x.shape[1]), x.T @ (targets - bias))
+    assert np.allclose(bias, targets.mean(axis=0))
+    assert np.allclose(x @ weights, x @ dense, atol=1e-6)
+
+
+def test_fern_leaves_follow_the_tests() -> None:
+    rng = np.random.default_rng(2)
+    values = rng.normal(0, 20, (200, 30)).astype(np.float32)
+    target = values[:, :2] @ np.array([[1.0, 0.0], [0.0, 1.0]])
+    config = FernConfig(1.0, n_ferns=2, depth=3, n_pairs=30, candidates=0.5)
+    pairs = random_pairs(rng, 30, 1.0)
+    offsets, thresholds, leaves = landmark_ferns(values, pairs, target, config, rng)
+    assert offsets.shape == (6, 4) and thresholds.shape == (6,) and leaves.shape == (200, 2)
+    chosen = [int(np.flatnonzero(np.all(pairs.astype(np.float32) == o, axis=1))[0])
+              for o in offsets]
+    bits = values[:, chosen] > thresholds
+    expected = np.stack([bits[:, 3 * f:3 * f + 3] @ [1, 2, 4] for f in range(2)], axis=1)
+    assert np.array_equal(leaves, expected)
+
+
+def test_a_stage_brings_tracking_starts_closer(synthetic_training_faces) -> None:
+    faces = synthetic_training_faces
+    truths = np.stack([f.points for f in faces])
+    space = ShapeSpace.train(truths, 0.98, (0, 1))
+    rng = np.random.default_rng(3)
+    owners = np.repeat(np.arange(len(faces)), 6)
+    starts = perturbed_starts(space, truths[owners], np.zeros(4), np.array([0.03, 0.03, 3, 3]),
+                              rng, shape_sd=0.3)
+    folds = owners % 2
+    samples = Samples(owners, truths[owners], starts, folds)
+    packed = PackedImages.pack([f.grey for f in faces])
+    stage, steps = train_fern_stage(packed, samples, space, FernConfig(0.3, n_ferns=3), rng)
+    moved = space.apply_steps(starts, steps, project=False)
+    before = np.linalg.norm(starts - truths[owners], axis=-1).mean()
+    after = np.linalg.norm(moved - truths[owners], axis=-1).mean()
+    assert after < 0.8 * before  # cross-fitted: as on faces the stage has not seen
+    leaves = fern_leaves(packed, owners, starts, space, stage)
+    in_sample = stage.weights.astype(np.float64)[leaves].sum(axis=1) + stage.bias
+    assert in_sample.shape == steps.shape and stage.n_points == space.n_points
