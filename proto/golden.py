@@ -45,7 +45,8 @@ RUN_ID = "run-8f3a2c"
 
 
 def _header(producer: str, frame_index: int = 42) -> Header:
-    return Header("cam0", frame_index, CAPTURE_NS, producer, CAPTURE_NS + 5_000_000, RUN_ID)
+    return Header("cam0", frame_index, CAPTURE_NS, producer, CAPTURE_NS + 5_000_000, RUN_ID,
+                  frame_index * 40_000_000)  # 25 frames/s
 
 
 def _fit() -> kinds.Fit:

@@ -15,10 +15,11 @@ from proto.fields import Int, Str, check_keys, is_int, type_name
 from proto.keys import check_name
 from proto.limits import ProtoError
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 """Version of the message contract; any change to a field or a rule bumps it.
 Version 2: ``run_id`` in the header; ``fit.similarity`` (was ``pose``) and the
-fit's frame size; ``status.lost`` and ``status.ignored``."""
+fit's frame size; ``status.lost`` and ``status.ignored``. Version 3:
+``media_time_ns`` in the header."""
 
 
 def check_run_id(value: str, what: str = "run id") -> str:
@@ -33,6 +34,7 @@ _SPECS = {
     "producer": Str(validate=check_name),
     "publish_time_ns": Int(),
     "run_id": Str(validate=check_run_id),
+    "media_time_ns": Int(),
 }
 WIRE_KEYS = ("schema_version", "kind", *_SPECS)
 """Keys of the wire header, in their order."""
@@ -60,6 +62,13 @@ class Header:
         any run): a source starts a new run each time it starts, so that a
         frame's index and size are read within its run, and messages of other
         runs can be told apart and ignored.
+    media_time_ns : int
+        Time of the frame on its video's own clock, nanoseconds from the run's
+        first frame: a file's frame position (its index over its frame rate),
+        whatever the pace of the run; for a camera or a stream, its capture
+        time less the first frame's. Smoothing over time and exported
+        timestamps read it, so that a file gives the same results run fast or
+        in real time.
     """
 
     stream_id: str
@@ -68,6 +77,7 @@ class Header:
     producer: str
     publish_time_ns: int
     run_id: str = ""
+    media_time_ns: int = 0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -82,11 +92,12 @@ class Header:
         producer: str,
         capture_time_ns: int | None = None,
         run_id: str = "",
+        media_time_ns: int = 0,
     ) -> Header:
         """A header published now; the capture time defaults to now as well."""
         published = time.time_ns()
         captured = published if capture_time_ns is None else capture_time_ns
-        return cls(stream_id, frame_index, captured, producer, published, run_id)
+        return cls(stream_id, frame_index, captured, producer, published, run_id, media_time_ns)
 
     def to_dict(self, kind: str) -> dict[str, Any]:
         """The wire map of this header for a message of ``kind``."""

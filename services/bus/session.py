@@ -192,15 +192,16 @@ class Service(Receiving, Presence):
         return topic_key(self.stream, kind)
 
     def header(self, frame_index: int, capture_time_ns: int | None = None,
-               run_id: str | None = None) -> Header:
+               run_id: str | None = None, media_time_ns: int = 0) -> Header:
         """A header for a message this service publishes now (of its own run by default)."""
         run = self.run_id if run_id is None else run_id
-        return Header.now(self.stream, frame_index, self.name, capture_time_ns, run)
+        return Header.now(self.stream, frame_index, self.name, capture_time_ns, run,
+                          media_time_ns)
 
     def header_for(self, source: Message) -> Header:
-        """A header for the result of ``source``: its frame, capture time and run."""
+        """A header for the result of ``source``: its frame, capture and media times, run."""
         h = source.header
-        return self.header(h.frame_index, h.capture_time_ns, h.run_id)
+        return self.header(h.frame_index, h.capture_time_ns, h.run_id, h.media_time_ns)
 
     def publish(self, message: Message, count: bool = True) -> None:
         """Encode ``message`` and put it on its key with its topic's QoS."""

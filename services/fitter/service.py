@@ -122,7 +122,7 @@ class FrameTracker:
             if result is None:
                 self.smoother.reset()
             else:
-                t = frame.header.capture_time_ns / 1e9
+                t = frame.header.media_time_ns / 1e9
                 # A copy: the tracker goes on from the raw fit, as the library's does.
                 result = replace(result, points=self.smoother.update(result.points, t, result.ok))
         return fit_message(self.svc.header_for(frame), result, self.scheme, self.warp_path,

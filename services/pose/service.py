@@ -37,7 +37,7 @@ def pose_message(svc: Service, fit: Fit, poses: HeadPoseTracker) -> HeadPose:
     PoseError, IntrinsicsError
         When no pose can be estimated from it.
     """
-    t = fit.header.capture_time_ns / 1e9
+    t = fit.header.media_time_ns / 1e9
     pose = poses.update(fit.landmarks, fit.image_width, fit.image_height, t, fit.failed)
     est, cam = pose.estimate, pose.camera
     roll, pitch, yaw = est.rpy

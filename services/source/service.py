@@ -41,10 +41,11 @@ def new_run_id() -> str:
 
 
 def make_frame(
-    svc: Service, index: int, image: np.ndarray, captured_ns: int, jpeg_quality: int
+    svc: Service, index: int, image: np.ndarray, captured_ns: int, jpeg_quality: int,
+    media_ns: int = 0,
 ) -> Frame:
     """A raw or JPEG ``Frame`` message of ``image`` (H, W, 3) uint8."""
-    header = svc.header(index, captured_ns)
+    header = svc.header(index, captured_ns, media_time_ns=media_ns)
     if jpeg_quality <= 0:
         return Frame.from_array(header, image)
     ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality])
@@ -82,9 +83,26 @@ def make_gate(svc: Service, opts: SourceOptions, fps: float) -> Callable[[int], 
     return window.wait
 
 
+class MediaClock:
+    """A frame's media time (``Header.media_time_ns``): a file's frame position on its frame
+    rate, the same run fast or in real time; a live input's time since its first frame."""
+
+    def __init__(self, video: VideoInput) -> None:
+        self.fps = video.fps if video.spec.is_file else None
+        self.first_ns: int | None = None
+
+    def __call__(self, index: int, captured_ns: int) -> int:
+        if self.fps is not None:
+            return round(index * 1e9 / self.fps)
+        if self.first_ns is None:
+            self.first_ns = captured_ns
+        return captured_ns - self.first_ns
+
+
 def publish_frames(svc: Service, video: VideoInput, opts: SourceOptions) -> tuple[int, str]:
     """Publish every frame of ``video``; return ``(frames published, reason it ended)``."""
     gate = make_gate(svc, opts, video.fps)
+    clock = MediaClock(video)
     size = (video.width, video.height)
     count = 0
     for image in video.frames():
@@ -97,7 +115,8 @@ def publish_frames(svc: Service, video: VideoInput, opts: SourceOptions) -> tupl
         if not gate(count):
             return count, "stopped"
         started = time.perf_counter()
-        svc.publish(make_frame(svc, count, image, time.time_ns(), opts.jpeg))
+        captured = time.time_ns()
+        svc.publish(make_frame(svc, count, image, captured, opts.jpeg, clock(count, captured)))
         svc.stats.count_in()
         svc.stats.last_frame = count
         svc.stats.latency.add(1000 * (time.perf_counter() - started))

@@ -27,11 +27,10 @@ class Exported:
     class_names: tuple[str, ...]
 
 
-def face_result(fit: Fit, pose: HeadPose | None, expression: Expression | None, t0: int
-                ) -> FaceResult:
-    """The result of one frame from its messages; ``t0`` is the first frame's capture time."""
+def face_result(fit: Fit, pose: HeadPose | None, expression: Expression | None) -> FaceResult:
+    """The result of one frame from its messages, timed on the video's clock."""
     h = fit.header
-    t = (h.capture_time_ns - t0) / 1e9
+    t = h.media_time_ns / 1e9
     points = np.asarray(fit.landmarks, np.float64)
     if len(points) == 0:
         return FaceResult(h.frame_index, t, False, 0.0, np.zeros((0, 2)),
@@ -61,11 +60,10 @@ def results_of(messages: list[Message]) -> Exported:
     fits = [m for m in messages if isinstance(m, Fit)]
     poses = _by_frame(messages, "pose")
     expressions = _by_frame(messages, "expression")
-    t0 = fits[0].header.capture_time_ns if fits else 0
     results = []
     for fit in fits:
         key = (fit.header.run_id, fit.header.frame_index)
-        results.append(face_result(fit, poses.get(key), expressions.get(key), t0))
+        results.append(face_result(fit, poses.get(key), expressions.get(key)))
     n_points = max((len(f.landmarks) for f in fits), default=0)
     names: tuple[str, ...] = ()
     for m in expressions.values():

@@ -50,6 +50,7 @@ def test_real_time_jpeg_frames_then_end_of_stream(
     assert all(f.encoding == "jpeg" and image_of(f).shape == (360, 640, 3) for f in got)
     span = (got[-1].header.capture_time_ns - got[0].header.capture_time_ns) / 1e9
     assert span == pytest.approx(29 / 30, abs=0.15)  # paced at the file's 30 frames/s
+    assert [f.header.media_time_ns for f in got] == [round(i * 1e9 / 30) for i in range(30)]
     assert len(ends) == 1 and ends[0].total_frames == 30 and ends[0].reason == "end_of_file"
 
 
@@ -66,6 +67,8 @@ def test_fast_pacing_goes_on_without_answers_after_the_timeout(
     got = drain(frames)
     assert [f.header.frame_index for f in got] == list(range(6))
     assert all(isinstance(f.image, np.ndarray) for f in got)  # raw by default
+    # The file's clock, not the pace: frame i is at i / 30 s however fast it went out.
+    assert [f.header.media_time_ns for f in got] == [round(i * 1e9 / 30) for i in range(6)]
     assert time.monotonic() - start >= 0.8  # frames 2..5 each waited for a lost answer
     assert drain(eos)[0].total_frames == 6
 
