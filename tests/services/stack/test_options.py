@@ -43,12 +43,16 @@ def test_set_passes_an_argument_to_one_service() -> None:
 
 
 def test_fast_pacing_keeps_every_fit_for_pose_and_expression() -> None:
+    from services.expression.options import ExpressionOptions
+    from services.pose.options import PoseOptions
     from services.stack.options import FAST_CAPACITY
 
     fast = parse_run_args(["--video", "clip.mp4", "--pace", "fast"]).services
     assert fast["pose"].capacity == fast["expression"].capacity == FAST_CAPACITY
     live = parse_run_args(["--video", "clip.mp4"]).services
-    assert live["pose"].capacity == live["expression"].capacity == 8
+    # Live: the services' own capacities (a burst is worked off, old fits go).
+    assert live["pose"].capacity == PoseOptions().capacity < FAST_CAPACITY
+    assert live["expression"].capacity == ExpressionOptions().capacity < FAST_CAPACITY
     chosen = parse_run_args(["--video", "clip.mp4", "--pace", "fast"])
     assert chosen.services["fitter"].algorithm == "local-binary"
     assert chosen.services["fitter"].failure_test == "auto" and chosen.services["fitter"].appearance
