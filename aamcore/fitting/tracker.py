@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Protocol
 
 import numpy as np
@@ -9,6 +10,15 @@ import numpy as np
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.result import FitResult
+from aamcore.fitting.upright import mapped, roll_of, rotated_view
+
+TURN_DEG = 12.0
+"""A lost face last seen rolled further than this is looked for in the frame turned by
+its roll as well as upright."""
+SEARCH_DEG = 25.0
+"""Without such a roll, each search turns the frame by this much, to one side and then
+to the other on the next search (Haar finds faces within about 20 degrees of
+upright)."""
 
 
 class FaceDetector(Protocol):
@@ -31,21 +41,29 @@ class Tracker:
         self.fitter = fitter
         self.detector = detector or HaarFaceDetector()
         self.last: FitResult | None = None
+        self.before: FitResult | None = None
+        """The good fit of the frame before the last, when that frame had one."""
         self.size: tuple[int, ...] = ()
         self.detections = 0
+        self.roll = 0.0
+        """Roll of the last good fit, radians (kept after the face is lost)."""
+        self._side = 1.0
 
     def reset(self) -> None:
-        """Forget the last fit: the next frame starts from a detection."""
-        self.last = None
+        """Forget the last fit and its roll: the next frame starts from a detection."""
+        self.last = self.before = None
+        self.roll = 0.0
 
     def track(self, image: np.ndarray) -> FitResult | None:
         """Fit ``image``; None when no face is found.
 
         A failed fit from the previous frame's parameters triggers a
         detection on the same frame (thesis section 7.2.2); so does a frame of
-        another size than the last (the last fit says nothing of it). A failed
-        fit from a detection is returned but not tracked from: the next frame
-        detects again.
+        another size than the last (the last fit says nothing of it). The face
+        is looked for upright and in the frame turned by the last good fit's
+        roll (or by +-:data:`SEARCH_DEG`, in turn), so that a rolled face is
+        found again. A failed fit from a detection is returned but not tracked
+        from: the next frame detects again.
 
         Raises
         ------
@@ -57,17 +75,49 @@ class Tracker:
                              f"{getattr(image, 'shape', '')}")
         if image.shape[:2] != self.size:
             self.size = image.shape[:2]
-            self.last = None
+            self.reset()
         if self.last is not None:
-            result = self.fitter.track(image, self.last)
+            result = self._track(image, self.last)
             if result.ok:
-                self.last = result
-                return result
+                return self._keep(result)
         self.detections += 1
-        boxes = self.detector.detect(image)
-        if len(boxes) == 0:
-            self.last = None
-            return None
-        result = self.fitter.fit_box(image, boxes[0])
-        self.last = result if result.ok else None
+        found = None
+        for angle in (0.0, self._turn()):
+            result = self._detect_and_fit(image, angle)
+            if result is not None and result.ok:
+                return self._keep(result)
+            found = found or result
+        self.last = self.before = None
+        return found
+
+    def _track(self, image: np.ndarray, last: FitResult) -> FitResult:
+        """The fit from the last frame's, moved on as the face moved between the two frames
+        before (a fast face outruns a start from where it was), else from where it was."""
+        if self.before is None:
+            return self.fitter.track(image, last)
+        motion = last.similarity @ self.before.similarity.inverse()
+        result = self.fitter.track(image, mapped(last, motion))
+        return result if result.ok else self.fitter.track(image, last)
+
+    def _keep(self, result: FitResult) -> FitResult:
+        self.before, self.last, self.roll = self.last, result, roll_of(result)
         return result
+
+    def _turn(self) -> float:
+        """The angle to turn the frame by in a search besides upright."""
+        if abs(self.roll) > math.radians(TURN_DEG):
+            return self.roll
+        self._side = -self._side
+        return self._side * math.radians(SEARCH_DEG)
+
+    def _detect_and_fit(self, image: np.ndarray, angle: float) -> FitResult | None:
+        """The fit from the largest face found in ``image`` turned by ``-angle``; None when
+        there is none."""
+        if angle == 0.0:
+            boxes = self.detector.detect(image)
+            return self.fitter.fit_box(image, boxes[0]) if len(boxes) else None
+        view, to_view = rotated_view(image, angle)
+        boxes = self.detector.detect(view)
+        if len(boxes) == 0:
+            return None
+        return mapped(self.fitter.fit_box(view, boxes[0]), to_view.inverse())

@@ -17,8 +17,10 @@ class ServiceDetector:
     """Face detection through the detector service (a Zenoh querier), with a local fallback.
 
     Has the ``detect(image) -> (K, 4)`` call that :class:`aamcore.fitting.tracker.Tracker`
-    expects. :meth:`set_frame` names the frame message about to be tracked, so
-    that a query carries the bytes received rather than a re-encoding.
+    expects. :meth:`set_frame` names the decoded image of the frame message
+    about to be tracked, so that a query about it carries the bytes received
+    rather than a re-encoding; any other image (the tracker asks about turned
+    copies of the frame too) is encoded for its query.
 
     Parameters
     ----------
@@ -38,12 +40,13 @@ class ServiceDetector:
         self._querier = svc.querier(detect_key(svc.stream), timeout)
         self._local: HaarFaceDetector | None = None
         self._local_until = 0.0
-        self._frame: Frame | None = None
+        self._image: np.ndarray | None = None
         self._payload = b""
 
-    def set_frame(self, frame: Frame, payload: bytes) -> None:
-        """The frame message the next :meth:`detect` calls are about, and its bytes."""
-        self._frame, self._payload = frame, payload
+    def set_frame(self, image: np.ndarray, payload: bytes) -> None:
+        """The decoded image of the frame message about to be tracked, and the message's
+        bytes."""
+        self._image, self._payload = image, payload
 
     def detect(self, image: np.ndarray) -> np.ndarray:
         """Face boxes ``(K, 4)`` float64 ``x, y, w, h`` in ``image``, largest first."""
@@ -58,8 +61,7 @@ class ServiceDetector:
         return self._detect_locally(image)
 
     def _payload_for(self, image: np.ndarray) -> bytes:
-        frame = self._frame
-        if frame is not None and (frame.width, frame.height) == (image.shape[1], image.shape[0]):
+        if image is self._image:
             return self._payload
         height, width = image.shape[:2]
         return encode(Frame(self.svc.header(0), "raw", width, height, image))

@@ -116,7 +116,7 @@ class FrameTracker:
         except ProtoError as exc:
             self.svc.reject("frame", exc.reason)
             return None
-        self.detector.set_frame(frame, got.payload)
+        self.detector.set_frame(image, got.payload)
         result = self.tracker.track(image)
         if self.smoother is not None:
             if result is None:

@@ -8,10 +8,13 @@ import cv2
 import numpy as np
 import pytest
 
+from aamcore.detection.haar import HaarFaceDetector
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
 from aamcore.fitting.tracker import Tracker
+from aamcore.fitting.upright import rotated_view
 from aamcore.io.video import video_frames
+from aamcore.model.similarity import Similarity
 
 
 @pytest.fixture(scope="module")
@@ -76,3 +79,52 @@ def test_a_face_partly_outside_the_frame(tracker: Tracker, faces) -> None:
         assert result is None or result.failed or abs(result.points[:, 0].mean()) < 80
     back = tracker.track(faces[8])
     assert back is not None and back.ok
+
+
+def turned(frame: np.ndarray, degrees: float) -> tuple[np.ndarray, Similarity]:
+    """``frame`` turned by ``degrees`` about its centre, and the map of its points."""
+    view, to_view = rotated_view(frame, np.radians(-degrees))
+    return view, to_view
+
+
+@pytest.mark.parametrize("degrees", [35.0, -35.0])
+def test_a_face_rolled_beyond_haar_is_found_in_a_turned_frame(
+    tracker: Tracker, faces, degrees: float
+) -> None:
+    upright = tracker.track(faces[0])
+    assert upright is not None and upright.ok
+    frame, to_frame = turned(faces[0], degrees)
+    assert len(HaarFaceDetector().detect(frame)) == 0  # Haar alone does not find it
+    tracker.reset()
+    found = [tracker.track(frame) for _ in range(2)]  # the search turns one way, then the other
+    good = [r for r in found if r is not None and r.ok]
+    assert good, [r and r.reason for r in found]
+    expected = to_frame.apply(upright.points)
+    assert np.abs(good[0].points - expected).max() < 12.0
+    assert abs(np.degrees(tracker.roll) - degrees) < 8.0
+
+
+def test_a_lost_rolled_face_is_looked_for_at_its_last_roll(tracker: Tracker, faces) -> None:
+    for k in range(6):  # the face turns to 35 degrees while tracked
+        frame, _ = turned(faces[k], 7.0 * k)
+        assert tracker.track(frame).ok, k
+    assert np.degrees(tracker.roll) > 25.0
+    for _ in range(3):  # covered: lost
+        assert tracker.track(np.zeros_like(faces[0])) is None
+    detections = tracker.detections
+    frame, _ = turned(faces[10], 35.0)
+    back = tracker.track(frame)
+    assert back is not None and back.ok and tracker.detections == detections + 1
+
+
+def test_a_face_moving_fast_is_held(tracker: Tracker, faces) -> None:
+    # 22 px a frame (about 0.4 of the eye distance): held only when the fit starts where the
+    # face is going, not where it was.
+    step = 22.0
+    for k in range(12):
+        shift = np.float64([[1, 0, step * k - 80], [0, 1, 0]])
+        frame = cv2.warpAffine(faces[k], shift, faces[k].shape[1::-1],
+                               borderMode=cv2.BORDER_REPLICATE)
+        result = tracker.track(frame)
+        assert result is not None and result.ok, k
+    assert tracker.detections == 1

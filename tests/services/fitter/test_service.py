@@ -16,7 +16,7 @@ from aamcore.fitting.model import FittingModel
 from aamcore.fitting.result import FitResult
 from aamcore.model.similarity import Similarity
 from aamcore.warp.worker import make_warp
-from proto import Frame, Header, decode, encode
+from proto import Header, decode, encode
 from services.bus.connection import BusOptions
 from services.bus.session import Service
 from services.fitter.service import NO_FACE, ServiceDetector, fit_message
@@ -100,10 +100,25 @@ def test_without_a_detector_service_the_fitter_detects_locally_and_says_so(
     with caplog.at_level(logging.WARNING), Service("fitter", bus_pair[0],
                                                    handle_signals=False) as svc:
         detector = ServiceDetector(svc, timeout=0.3, local_for=60.0)
-        detector.set_frame(Frame.from_array(svc.header(0), image), b"")
+        detector.set_frame(image, b"")
         first = detector.detect(image)
         second = detector.detect(image)
     assert len(first) >= 1 and np.array_equal(first, second)
     assert detector.queries == 1 and detector.local_detections == 2
     warnings = [r.getMessage() for r in caplog.records if "did not answer" in r.getMessage()]
     assert len(warnings) == 1
+
+
+def test_a_query_about_a_turned_copy_of_the_frame_carries_that_copy(
+    bus_pair: tuple[BusOptions, BusOptions], single_face: Path
+) -> None:
+    from aamcore.fitting.upright import rotated_view
+
+    image = frames(single_face, (0,))[0]
+    with Service("fitter", bus_pair[0], handle_signals=False) as svc:
+        detector = ServiceDetector(svc, timeout=0.3, local_for=60.0)
+        detector.set_frame(image, b"the frame's own bytes")
+        assert detector._payload_for(image) == b"the frame's own bytes"
+        view, _ = rotated_view(image, 0.5)
+        sent = decode(detector._payload_for(view), "frame")
+    assert np.array_equal(sent.image, view)
