@@ -295,15 +295,9 @@ def print_table(aamtrack: list[MethodResult], opencv: MethodResult) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument(
-        "--limit", type=int, default=None, help="fit only the first N test images (quick run)"
-    )
-    parser.add_argument(
-        "--opencv-pixels",
-        type=int,
-        default=None,
-        help="texture pixels of the OpenCV model (default: as aamtrack's)",
-    )
+    parser.add_argument("--limit", type=int, help="fit only the first N test images (quick run)")
+    parser.add_argument("--opencv-pixels", type=int,
+                        help="texture pixels of the OpenCV model (default: as aamtrack's)")
     args = parser.parse_args(argv)
     if args.limit is not None and args.limit < 1:
         parser.error("--limit must be >= 1")

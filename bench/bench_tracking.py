@@ -43,14 +43,11 @@ frames the stack and the library agree.
 from __future__ import annotations
 
 import argparse
-import hashlib
-import inspect
 import os
 import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -61,167 +58,19 @@ from threadpoolctl import threadpool_limits  # noqa: E402
 
 from aamcore import defaults  # noqa: E402
 from aamcore.config import REPO_ROOT, cache_dir, data_root, resolve_dataset  # noqa: E402
-from aamcore.evaluation.fits import held_out  # noqa: E402
-from aamcore.evaluation.metrics import nme  # noqa: E402
 from aamcore.fitting.algorithm import ALGORITHMS  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
-from aamcore.io import FaceSample, load_annotated_folder  # noqa: E402
+from aamcore.io import load_annotated_folder  # noqa: E402
 from aamcore.io.landmarks import LandmarkScheme  # noqa: E402
 from aamcore.io.splits import set_name_of, split  # noqa: E402
 from aamcore.io.video import video_frames  # noqa: E402
-from aamcore.synth import motion, motion_files  # noqa: E402
-from aamcore.synth.motion import MotionSpec, generate  # noqa: E402
-from aamcore.synth.motion_files import (  # noqa: E402
-    GroundTruth,
-    read_ground_truth,
-    video_path,
-    write_sequence,
-)
 from aamcore.tracker import FaceResult, FaceTracker  # noqa: E402
 
-SETS = {"lfpw": "lfpw", "helen": "helen/trainset", "afw": "afw"}
-"""Split set -> dataset folder."""
-SEEDS = {"lfpw": 100, "helen": 200, "afw": 300}
-"""First motion seed of each set's sequences."""
-OCCLUDER = (0.4, 0.6)
-"""The occluder's crossing, as fractions of the sequence."""
-REACQUIRED_NME = 0.08
-"""A good fit re-acquires the face when its NME is below this."""
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from tracking_clips import Clip, generated_clips  # noqa: E402
+from tracking_scores import REACQUIRED_NME, Score, Track, pooled, score, track_of  # noqa: E402
+
 TARGET_GOOD, TARGET_NME, TARGET_REACQUIRE = 0.98, 0.035, 5
-
-
-@dataclass(frozen=True)
-class Clip:
-    """A video to track.
-
-    Attributes
-    ----------
-    set_name : str
-        ``lfpw``, ``helen``, ``afw``, or ``video`` for the real video.
-    name : str
-    video : Path
-    truth : GroundTruth or None
-    """
-
-    set_name: str
-    name: str
-    video: Path
-    truth: GroundTruth | None
-
-
-@dataclass(frozen=True)
-class Track:
-    """What the tracker did on every frame of a clip.
-
-    Attributes
-    ----------
-    success : (F,) bool array
-        A face was found and its fit passed the failure test.
-    found : (F,) bool array
-        A face was found (a fit was returned, good or failed).
-    landmarks : list of (N, 2) arrays
-        ``(0, 2)`` without a face.
-    seconds : (F,) float array
-        Time of each frame; NaN when not measured (the stack).
-    detections : int
-        Detector runs.
-    """
-
-    success: np.ndarray
-    found: np.ndarray
-    landmarks: list[np.ndarray]
-    seconds: np.ndarray
-    detections: int
-
-
-@dataclass(frozen=True)
-class Score:
-    """A clip's (or a pool of clips') numbers.
-
-    Attributes
-    ----------
-    frames, good, outside, good_outside, failed, no_face, redetections : int
-        Frame counts (``outside``: frames without the occluder on the face).
-    errors : (G,) float array
-        NME of the good fits outside the occluder (empty without a truth).
-    reacquire : list of int or None
-        Frames to re-acquire after each occluder (None: never).
-    seconds : (F,) float array
-    """
-
-    frames: int
-    good: int
-    outside: int
-    good_outside: int
-    failed: int
-    no_face: int
-    redetections: int
-    errors: np.ndarray
-    reacquire: list[int | None]
-    seconds: np.ndarray
-
-
-def generator_version() -> str:
-    """A digest of the generator's code: cached sequences are remade when it changes."""
-    text = inspect.getsource(motion) + inspect.getsource(motion_files)
-    return hashlib.sha1(text.encode()).hexdigest()[:8]
-
-
-def held_out_photos(model: FittingModel, set_name: str, count: int) -> list[FaceSample]:
-    """``count`` held-out photos of a set, spread over it, that ``model`` was not trained on."""
-    data = load_annotated_folder(resolve_dataset(SETS[set_name]))
-    _, test = split(data.samples, set_name)
-    fresh = held_out(model.aam, test)
-    if len(fresh) < len(test):
-        print(f"note: {len(test) - len(fresh)} of the {len(test)} held-out {set_name} photos "
-              "are in the model's training set: left out")
-    if len(fresh) <= count:
-        return fresh
-    return [fresh[i * len(fresh) // count] for i in range(count)]
-
-
-def motion_spec(set_name: str, index: int, frames: int) -> MotionSpec:
-    """The motion of a set's ``index``-th sequence: an occluder on every second one."""
-    occluder = None
-    if index % 2 == 1:
-        occluder = (int(OCCLUDER[0] * frames), int(OCCLUDER[1] * frames))
-    return MotionSpec(frames=frames, occluder=occluder, seed=SEEDS[set_name] + index)
-
-
-def sequence_folder(set_name: str, sample: FaceSample, spec: MotionSpec) -> Path:
-    """Where the sequence of ``sample`` moved by ``spec`` is cached."""
-    key = f"{sample.image_id()} {spec} {generator_version()}"
-    digest = hashlib.sha1(key.encode()).hexdigest()[:10]
-    return cache_dir() / "sequences" / f"{set_name}-{Path(sample.image_path).stem}-{digest}"
-
-
-def ensure_sequence(set_name: str, sample: FaceSample, spec: MotionSpec,
-                    regenerate: bool) -> tuple[Path, GroundTruth]:
-    """The cached sequence's folder and truth, generated and written when missing."""
-    folder = sequence_folder(set_name, sample, spec)
-    if not regenerate:
-        try:
-            truth = read_ground_truth(folder)
-            if truth.spec == spec and video_path(folder).exists():
-                return folder, truth
-        except (FileNotFoundError, KeyError, ValueError):
-            pass
-    sequence = generate(sample.load_image(), sample.points, spec)
-    write_sequence(sequence, folder, spec=spec)
-    return folder, read_ground_truth(folder)
-
-
-def generated_clips(model: FittingModel, per_set: int, frames: int,
-                    regenerate: bool) -> list[Clip]:
-    """The generated sequences of every set, ``per_set`` each."""
-    clips = []
-    for set_name in SETS:
-        for k, sample in enumerate(held_out_photos(model, set_name, per_set)):
-            spec = motion_spec(set_name, k, frames)
-            folder, truth = ensure_sequence(set_name, sample, spec, regenerate)
-            label = f"{set_name} {Path(sample.image_path).stem}{' +occl' if spec.occluder else ''}"
-            clips.append(Clip(set_name, label, video_path(folder), truth))
-    return clips
 
 
 def track(tracker: FaceTracker, frames: list[np.ndarray], fps: float) -> Track:
@@ -236,63 +85,6 @@ def track(tracker: FaceTracker, frames: list[np.ndarray], fps: float) -> Track:
         results.append(tracker.process(frame, k / fps))
         seconds.append(time.perf_counter() - t0)
     return track_of(results, np.array(seconds), tracker.tracker.detections - before)
-
-
-def track_of(results: list[FaceResult], seconds: np.ndarray, detections: int) -> Track:
-    """A :class:`Track` of per-frame results."""
-    return Track(np.array([r.success for r in results], bool),
-                 np.array([len(r.landmarks) > 0 for r in results], bool),
-                 [r.landmarks for r in results], seconds, detections)
-
-
-def frame_errors(run: Track, truth: GroundTruth, scheme: LandmarkScheme) -> np.ndarray:
-    """NME of every frame with a good fit (F,); NaN elsewhere."""
-    return np.array([nme(points, gt, scheme) if ok else np.nan
-                     for ok, points, gt in zip(run.success, run.landmarks, truth.landmarks,
-                                               strict=True)])
-
-
-def reacquisition(run: Track, truth: GroundTruth, errors: np.ndarray) -> list[int | None]:
-    """Frames from the occluder leaving the face to a good fit with NME < 0.08 ([] without an
-    occluder; None: never)."""
-    if not truth.occluded.any():
-        return []
-    after = int(np.flatnonzero(truth.occluded)[-1]) + 1
-    for k in range(after, len(errors)):
-        if run.success[k] and errors[k] < REACQUIRED_NME:
-            return [k - after]
-    return [None]
-
-
-def score(run: Track, truth: GroundTruth | None, scheme: LandmarkScheme | None) -> Score:
-    """The numbers of one clip."""
-    frames = len(run.success)
-    failed = int(np.sum(run.found & ~run.success))
-    no_face = int(np.sum(~run.found))
-    redetections = max(run.detections - 1, 0) if run.detections >= 0 else -1
-    if truth is None or scheme is None:
-        return Score(frames, int(run.success.sum()), frames, int(run.success.sum()), failed,
-                     no_face, redetections, np.zeros(0), [], run.seconds)
-    if len(truth.landmarks) != frames:
-        raise ValueError(f"{frames} frames tracked, {len(truth.landmarks)} in the ground truth")
-    errors = frame_errors(run, truth, scheme)
-    outside = ~truth.occluded
-    good_outside = run.success & outside
-    return Score(frames, int(run.success.sum()), int(outside.sum()), int(good_outside.sum()),
-                 failed, no_face, redetections, errors[good_outside],
-                 reacquisition(run, truth, errors), run.seconds)
-
-
-def pooled(scores: list[Score]) -> Score:
-    """One score of several clips: frames pooled, every re-acquisition kept."""
-    def total(name: str) -> int:
-        return sum(getattr(s, name) for s in scores)
-
-    return Score(total("frames"), total("good"), total("outside"), total("good_outside"),
-                 total("failed"), total("no_face"), total("redetections"),
-                 np.concatenate([s.errors for s in scores]),
-                 [r for s in scores for r in s.reacquire],
-                 np.concatenate([s.seconds for s in scores]))
 
 
 HEADER = (f"{'sequence':<32}{'frames':>7}{'good':>7}{'good out':>9}{'failed':>7}{'no face':>8}"

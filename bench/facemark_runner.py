@@ -378,17 +378,12 @@ COMMANDS = {"train": train, "fit": fit}
 def main(argv: list[str]) -> int:
     """Run ``COMMAND REQUEST.json RESULT.json``; errors go to stderr, exit status 1."""
     if len(argv) != 3 or argv[0] not in COMMANDS:
-        print(
-            f"usage: facemark_runner.py {{{','.join(COMMANDS)}}} REQUEST.json RESULT.json",
-            file=sys.stderr,
-        )
+        print(f"usage: facemark_runner.py {{{','.join(COMMANDS)}}} REQUEST.json RESULT.json",
+              file=sys.stderr)
         return 2
     if not hasattr(cv2, "face"):
-        print(
-            f"this cv2 ({cv2.__version__}, {cv2.__file__}) has no `face` module: run me with "
-            "opencv-contrib-python-headless",
-            file=sys.stderr,
-        )
+        print(f"this cv2 ({cv2.__version__}, {cv2.__file__}) has no `face` module: run me with "
+              "opencv-contrib-python-headless", file=sys.stderr)
         return 1
     try:
         result = COMMANDS[argv[0]](json.loads(Path(argv[1]).read_text()))
