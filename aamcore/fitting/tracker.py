@@ -15,6 +15,10 @@ from aamcore.fitting.upright import mapped, roll_of, rotated_view
 TURN_DEG = 12.0
 """A lost face last seen rolled further than this is looked for in the frame turned by
 its roll as well as upright."""
+MOVING = 0.03
+"""A face whose centre moved more than this share of its width between two frames is
+tracked from where that motion takes it; a smaller move is mostly the fits' own jitter,
+which extrapolated would only add to it."""
 SEARCH_DEG = 25.0
 """Without such a roll, each search turns the frame by this much, to one side and then
 to the other on the next search (Haar finds faces within about 20 degrees of
@@ -93,7 +97,7 @@ class Tracker:
     def _track(self, image: np.ndarray, last: FitResult) -> FitResult:
         """The fit from the last frame's, moved on as the face moved between the two frames
         before (a fast face outruns a start from where it was), else from where it was."""
-        if self.before is None:
+        if self.before is None or not _moving(self.before, last):
             return self.fitter.track(image, last)
         motion = last.similarity @ self.before.similarity.inverse()
         result = self.fitter.track(image, mapped(last, motion))
@@ -121,3 +125,10 @@ class Tracker:
         if len(boxes) == 0:
             return None
         return mapped(self.fitter.fit_box(view, boxes[0]), to_view.inverse())
+
+
+def _moving(before: FitResult, last: FitResult) -> bool:
+    """Whether the face moved more than :data:`MOVING` of its width from ``before`` to
+    ``last``."""
+    step = np.linalg.norm(last.points.mean(axis=0) - before.points.mean(axis=0))
+    return bool(step > MOVING * np.ptp(last.points[:, 0]))
