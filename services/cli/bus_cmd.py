@@ -16,6 +16,7 @@ import math
 import sys
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 from proto import Message
@@ -25,6 +26,9 @@ from services.bus.options import OptionError, add_options, options_from
 from services.bus.process import init_process
 from services.bus.session import Service
 from services.stack.recorder import IMAGE_KINDS, RESULT_KINDS, RecordWriter
+
+DRAIN_QUIET = 0.75
+"""Seconds of quiet after the last frame's fit that end a recording ``--until-eos``."""
 
 DEFAULT_TIMEOUT = 10.0
 """Seconds to wait for a stack before giving up."""
@@ -45,7 +49,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--frames", action="store_true", help="record frames too")
     p.add_argument("--overlays", action="store_true", help="record overlays too")
     p.add_argument("--until-eos", action="store_true",
-                   help="stop 2 s after the stream's end of stream")
+                   help="stop after the stream's end of stream, once the last frame's fit has "
+                   f"come and nothing came for {DRAIN_QUIET:g} s (at most --drain-max s)")
+    p.add_argument("--drain-max", type=float, default=20.0, metavar="S",
+                   help="with --until-eos: the longest wait for results after the end of "
+                   "stream (default 20)")
     _common(p)
     p.set_defaults(func=cmd_record)
 
@@ -84,15 +92,15 @@ def _wait_for_peer(svc: Service, timeout: float) -> bool:
     return True
 
 
-def _run(svc: Service, args: argparse.Namespace, done: threading.Event) -> int:
-    """Run until done, stopped or ``--duration``; 1 when no stack was found."""
+def _run(svc: Service, args: argparse.Namespace, done: Callable[[], bool]) -> int:
+    """Run until ``done()``, stopped or ``--duration``; 1 when no stack was found."""
     if not _wait_for_peer(svc, args.timeout):
         where = ", ".join(svc.bus.connect or svc.bus.listen)
         print(f"aamtrack {args.command}: error: no aamtrack stack answered at {where} within "
               f"{args.timeout:g} s", file=sys.stderr)
         return 1
     deadline = time.monotonic() + args.duration if args.duration > 0 else math.inf
-    while not done.is_set() and not svc.wait(0.05) and time.monotonic() < deadline:
+    while not done() and not svc.wait(0.05) and time.monotonic() < deadline:
         pass
     return 0
 
@@ -156,7 +164,39 @@ def cmd_echo(args: argparse.Namespace) -> int:
 
         svc.subscribe(args.keyexpr, on_sample)
         svc.ready()
-        return _run(svc, args, done)
+        return _run(svc, args, done.is_set)
+
+
+class EndOfRun:
+    """When a recording of a run is complete: after its end of stream, the last frame's fit
+    has come and the stream has been quiet for :data:`DRAIN_QUIET` s, or ``drain_max`` s have
+    passed (the launcher's rule, :func:`services.stack.launcher.wait_for_end`)."""
+
+    def __init__(self, drain_max: float) -> None:
+        self.drain_max = drain_max
+        self.fits: set[int] = set()
+        self.total: int | None = None
+        self.eos_at = math.inf
+        self.last = time.monotonic()
+        self._lock = threading.Lock()
+
+    def saw(self, msg: Message) -> None:
+        with self._lock:
+            if msg.KIND == "fit":
+                self.fits.add(msg.header.frame_index)
+                self.last = time.monotonic()
+            elif msg.KIND == "eos":  # the first one starts the wait
+                self.eos_at = min(self.eos_at, time.monotonic())
+                self.total = msg.total_frames
+
+    def over(self) -> bool:
+        with self._lock:
+            if self.total is None:
+                return False
+            now = time.monotonic()
+            complete = self.total == 0 or self.total - 1 in self.fits
+            return (complete and now - self.last >= DRAIN_QUIET) or (
+                now - self.eos_at >= self.drain_max)
 
 
 def record_keys(stream: str, frames: bool, overlays: bool) -> list[str]:
@@ -171,7 +211,7 @@ def cmd_record(args: argparse.Namespace) -> int:
     client = _client(args)
     if client is None:
         return 2
-    ended = threading.Event()
+    end = EndOfRun(args.drain_max)
     with RecordWriter(args.out) as writer, client as svc:
         def on_sample(sample: Any) -> None:
             payload = sample.payload.to_bytes()
@@ -180,12 +220,11 @@ def cmd_record(args: argparse.Namespace) -> int:
                 return
             writer.write(payload)
             svc.stats.count_in(msg.header)
-            if msg.KIND == "eos" and args.until_eos:
-                threading.Timer(2.0, ended.set).start()
+            end.saw(msg)
 
         for key in record_keys(svc.stream, args.frames, args.overlays):
             svc.subscribe(key, on_sample)
         svc.ready(f"recording to {args.out}")
-        code = _run(svc, args, ended)
+        code = _run(svc, args, end.over if args.until_eos else lambda: False)
     print(f"recorded {writer.count} messages to {args.out}", file=sys.stderr)
     return code
