@@ -143,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--latency-loops", type=int, default=3, help="plays, latency run")
     parser.add_argument("--warp", choices=("auto", "gpu", "cpu"), default="auto")
     parser.add_argument("--small-model", action="store_true",
-                        help="the small test model (120 images) instead of the full LFPW one")
+                        help="the small test model instead of the default one")
     parser.add_argument("--no-ar", action="store_true", help="leave the glasses renderer out")
     parser.add_argument("--rerun", action="store_true", help="add the Rerun logger (.rrd)")
     parser.add_argument("--algorithm", help="the fitter's algorithm (default: the stack's)")
@@ -170,7 +170,8 @@ def main(argv: list[str] | None = None) -> int:
     algorithm = fast.opts.services["fitter"].algorithm
     print(f"stack: detector, fitter ({algorithm}, {args.warp} warp), pose, expression"
           f"{'' if args.no_ar else ', ar'}{', rerun' if args.rerun else ''}, source; "
-          f"{os.cpu_count()} cores; model {'small' if args.small_model else 'full LFPW'}")
+          f"{os.cpu_count()} cores; model "
+          f"{'small' if args.small_model else 'default (lfpw,helen,afw)'}")
     print(f"\nthroughput, fastest pacing, {args.loops} plays: {fps:.1f} frames/s; {note}")
     print(f"latency, real-time pacing, {args.latency_loops} plays: capture to pose p50 "
           f"{p50:.1f} ms, p99 {p99:.1f} ms over {len(lat)} poses "
