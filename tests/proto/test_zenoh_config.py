@@ -14,7 +14,7 @@ from proto.codec import decode, encode
 from proto.header import Header
 from proto.keys import parse_key, stream_wildcard
 from proto.messages import Frame, Message
-from proto.zenoh_config import zenoh_config
+from proto.zenoh_config import DROP_WAIT_US, zenoh_config
 
 
 def free_tcp_endpoint() -> str:
@@ -28,6 +28,8 @@ def test_config_sets_mode_endpoints_and_scouting() -> None:
     config = zenoh_config("client", connect=["tcp/10.0.0.1:7447"])
     assert json.loads(config.get_json("mode")) == "client"
     assert json.loads(config.get_json("connect/endpoints")) == ["tcp/10.0.0.1:7447"]
+    drop = json.loads(config.get_json("transport/link/tx/queue/congestion_control/drop"))
+    assert drop == DROP_WAIT_US  # a loaded machine's queue gets time before anything drops
     assert json.loads(config.get_json("listen/endpoints")) == []
     assert json.loads(config.get_json("scouting/multicast/enabled")) is False
     assert json.loads(zenoh_config(multicast_scouting=True).get_json("scouting/multicast/enabled"))
