@@ -294,6 +294,14 @@ def prepared(opts: StackOptions) -> StackOptions:
 def run_stack(opts: StackOptions) -> int:
     """Run the stack as ``opts`` says; the exit code (see the module notes)."""
     try:
+        return _run_stack(opts)
+    except KeyboardInterrupt:  # before the launcher's own stop handling was in place
+        _say_unwritten(opts)
+        raise
+
+
+def _run_stack(opts: StackOptions) -> int:
+    try:
         opts = prepared(opts)
     except (preflight.PreflightError, OptionError) as exc:
         print(f"aamtrack run: error: {exc}", file=sys.stderr)
@@ -308,10 +316,14 @@ def run_stack(opts: StackOptions) -> int:
     print(summary_table(summary))
     if opts.launch.summary:
         Path(opts.launch.summary).write_text(json.dumps(summary, indent=2))
+    _say_unwritten(opts)
+    return exit_code(stack.outcome, summary)
+
+
+def _say_unwritten(opts: StackOptions) -> None:
     for path in unwritten(opts):
         print(f"aamtrack run: no recording {path}: stopped before it was started",
               file=sys.stderr)
-    return exit_code(stack.outcome, summary)
 
 
 def unwritten(opts: StackOptions) -> list[str]:

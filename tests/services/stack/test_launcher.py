@@ -390,3 +390,23 @@ def test_frames_lost_to_a_stopped_consumer_are_counted_and_fail_the_run(
     assert fitter["dropped"] + summary["frames_lost"] > 0, fitter
     # A run with frames lost to a fault fails; one that only dropped frames by design does not.
     assert (exit_code("done", summary) == EXIT_FAILED) == (summary["frames_lost"] > 0)
+
+
+def test_ctrl_c_before_the_stack_starts_names_the_recordings_never_started(
+    tmp_path: Path, single_face: Path, monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    import services.stack.launcher as launcher
+    from services.stack.options import parse_run_args
+
+    def interrupted(opts: StackOptions) -> StackOptions:
+        raise KeyboardInterrupt  # where a Ctrl-C during the checks of the options lands
+
+    monkeypatch.setattr(launcher, "prepared", interrupted)
+    rec, rrd = tmp_path / "run.rec", tmp_path / "run.rrd"
+    opts = parse_run_args(["--video", str(single_face), "--record", str(rec), "--rrd", str(rrd)])
+    with pytest.raises(KeyboardInterrupt):
+        launcher.run_stack(opts)
+    err = capsys.readouterr().err
+    for path in (rec, rrd):
+        assert f"no recording {path}: stopped before it was started" in err
