@@ -67,6 +67,8 @@ from services.stack.supervisor import ServiceSpec, Supervisor
 sup = Supervisor([ServiceSpec("source", "tests.services.stack.slow_start_service", [])],
                  env={"AAMTRACK_TEST_MARKS": sys.argv[1]})
 sup.start()
+with open(sys.argv[1], "a") as f:
+    f.write("launcher waiting\\n")
 try:
     time.sleep(60)
 except KeyboardInterrupt:
@@ -89,7 +91,10 @@ def test_ctrl_c_reaches_the_launcher_alone_and_it_stops_a_service_still_importin
     driver = subprocess.Popen([sys.executable, "-c", DRIVER, str(marks)], text=True,
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                               start_new_session=True)
-    wait_until(lambda: marks.exists() and "importing" in marks.read_text())
+    # Both in place: the service importing, the launcher past starting it (a Ctrl-C during
+    # the start is the launcher's __enter__'s to handle, not this stand-in's).
+    wait_until(lambda: marks.exists() and {"importing", "launcher waiting"}
+               <= set(marks.read_text().splitlines()))
     os.killpg(driver.pid, signal.SIGINT)
     out, err = driver.communicate(timeout=30)
     assert "launcher interrupted" in out
