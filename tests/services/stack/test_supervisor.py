@@ -62,8 +62,11 @@ def test_each_service_has_a_process_group_of_its_own(tmp_path) -> None:
 
 
 DRIVER = """
-import sys, time
+import signal, sys, time
 from services.stack.supervisor import ServiceSpec, Supervisor
+# As in a launcher started from a terminal, whatever the test runner inherited (a runner
+# started in the background has SIGINT ignored, and so would this stand-in).
+signal.signal(signal.SIGINT, signal.default_int_handler)
 sup = Supervisor([ServiceSpec("source", "tests.services.stack.slow_start_service", [])],
                  env={"AAMTRACK_TEST_MARKS": sys.argv[1]})
 sup.start()
