@@ -25,10 +25,8 @@ from services.bus.connection import BusOptions
 from services.bus.options import OptionError, add_options, options_from
 from services.bus.process import init_process
 from services.bus.session import Service
+from services.stack.drain import DRAIN_MAX, DRAIN_QUIET, EndOfRun
 from services.stack.recorder import IMAGE_KINDS, RESULT_KINDS, RecordWriter
-
-DRAIN_QUIET = 0.75
-"""Seconds of quiet after the last frame's fit that end a recording ``--until-eos``."""
 
 DEFAULT_TIMEOUT = 10.0
 """Seconds to wait for a stack before giving up."""
@@ -51,9 +49,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--until-eos", action="store_true",
                    help="stop after the stream's end of stream, once the last frame's fit has "
                    f"come and nothing came for {DRAIN_QUIET:g} s (at most --drain-max s)")
-    p.add_argument("--drain-max", type=float, default=20.0, metavar="S",
+    p.add_argument("--drain-max", type=float, default=DRAIN_MAX, metavar="S",
                    help="with --until-eos: the longest wait for results after the end of "
-                   "stream (default 20)")
+                   f"stream (default {DRAIN_MAX:g})")
     _common(p)
     p.set_defaults(func=cmd_record)
 
@@ -167,38 +165,6 @@ def cmd_echo(args: argparse.Namespace) -> int:
         return _run(svc, args, done.is_set)
 
 
-class EndOfRun:
-    """When a recording of a run is complete: after its end of stream, the last frame's fit
-    has come and the stream has been quiet for :data:`DRAIN_QUIET` s, or ``drain_max`` s have
-    passed (the launcher's rule, :func:`services.stack.launcher.wait_for_end`)."""
-
-    def __init__(self, drain_max: float) -> None:
-        self.drain_max = drain_max
-        self.fits: set[int] = set()
-        self.total: int | None = None
-        self.eos_at = math.inf
-        self.last = time.monotonic()
-        self._lock = threading.Lock()
-
-    def saw(self, msg: Message) -> None:
-        with self._lock:
-            if msg.KIND == "fit":
-                self.fits.add(msg.header.frame_index)
-                self.last = time.monotonic()
-            elif msg.KIND == "eos":  # the first one starts the wait
-                self.eos_at = min(self.eos_at, time.monotonic())
-                self.total = msg.total_frames
-
-    def over(self) -> bool:
-        with self._lock:
-            if self.total is None:
-                return False
-            now = time.monotonic()
-            complete = self.total == 0 or self.total - 1 in self.fits
-            return (complete and now - self.last >= DRAIN_QUIET) or (
-                now - self.eos_at >= self.drain_max)
-
-
 def record_keys(stream: str, frames: bool, overlays: bool) -> list[str]:
     """Keys a recording of ``stream`` subscribes to."""
     kinds = [k for k in RESULT_KINDS if k in TOPICS]
@@ -211,7 +177,7 @@ def cmd_record(args: argparse.Namespace) -> int:
     client = _client(args)
     if client is None:
         return 2
-    end = EndOfRun(args.drain_max)
+    end = EndOfRun(drain_max=args.drain_max)
     with RecordWriter(args.out) as writer, client as svc:
         def on_sample(sample: Any) -> None:
             payload = sample.payload.to_bytes()

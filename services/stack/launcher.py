@@ -32,7 +32,6 @@ import json
 import logging
 import socket
 import sys
-import time
 import uuid
 from dataclasses import replace
 from pathlib import Path
@@ -43,6 +42,7 @@ from services.bus.connection import BusOptions
 from services.bus.options import OptionError
 from services.bus.session import Service
 from services.stack import preflight
+from services.stack.drain import EndOfRun
 from services.stack.monitor import StackMonitor, summary_table
 from services.stack.options import StackOptions
 from services.stack.recorder import RecordWriter
@@ -151,19 +151,18 @@ def service_specs(opts: StackOptions, bus: BusOptions) -> list[ServiceSpec]:
 
 def wait_for_end(svc: Service, sup: Supervisor, mon: StackMonitor, opts: StackOptions) -> str:
     """Watch the run until it is over; return why: ``done``, ``source failed``, ``stopped``..."""
-    eos_at: float | None = None
+    said_eos = False
     while not svc.wait(0.1):
         sup.check()
         if mon.foreign and not mon.counts["fit"]:
             runs = ", ".join(f"{run}: {', '.join(sorted(n))}" for run, n in mon.foreign.items())
             return f"taken: services of another run are on this endpoint ({runs})"
-        if mon.eos is not None and eos_at is None:
-            eos_at = time.monotonic()
-            log.info("end of stream after %d frames (%s)", mon.eos.total_frames, mon.eos.reason)
-        if eos_at is not None:
-            waited = time.monotonic() - eos_at
-            if (mon.last_fit_in() and mon.quiet_for() >= opts.launch.drain_quiet) or (
-                    waited >= opts.launch.drain_max):
+        if mon.eos is not None:
+            if not said_eos:
+                said_eos = True
+                log.info("end of stream after %d frames (%s)", mon.eos.total_frames,
+                         mon.eos.reason)
+            if mon.end.over():
                 return "done"
         elif ("source" in opts.services and sup.exitcode("source") is not None
               and (svc.wait(1.0) or mon.eos is None)):
@@ -218,7 +217,8 @@ class Stack:
         self.supervisor = Supervisor(self.specs, env=SERVICE_ENV)
         self.recorder = RecordWriter(opts.launch.record) if opts.launch.record else None
         self.service = Service(NAME, own_bus)
-        self.monitor = StackMonitor(self.service, self.recorder, opts.launch.record_images)
+        self.monitor = StackMonitor(self.service, self.recorder, opts.launch.record_images,
+                                    EndOfRun(opts.launch.drain_quiet, opts.launch.drain_max))
         self.exit_codes: dict[str, int | None] = {}
         self.outcome = "stopped"
 

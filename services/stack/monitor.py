@@ -15,6 +15,7 @@ from typing import Any
 from proto import EndOfStream, Message, Status, decode
 from proto.keys import status_wildcard
 from services.bus.session import Service
+from services.stack.drain import EndOfRun
 from services.stack.recorder import IMAGE_KINDS, RESULT_KINDS, RecordWriter
 from services.stack.registry import SERVICES
 
@@ -24,7 +25,8 @@ RESULTS = ("fit", "pose", "expression")
 class StackMonitor:
     """Counts and records a run's messages, as the launcher's service receives them."""
 
-    def __init__(self, svc: Service, recorder: RecordWriter | None, record_images: bool) -> None:
+    def __init__(self, svc: Service, recorder: RecordWriter | None, record_images: bool,
+                 end: EndOfRun | None = None) -> None:
         self.svc = svc
         self.recorder = recorder
         self.indices: dict[str, set[int]] = {k: set() for k in RESULTS}
@@ -35,7 +37,8 @@ class StackMonitor:
         self.foreign: dict[str, set[str]] = {}
         """Run id -> stack services of another run seen on the bus (from their statuses)."""
         self.eos: EndOfStream | None = None
-        self.last_result = time.monotonic()
+        self.end = end or EndOfRun()
+        """When the run's results are all in (:mod:`services.stack.drain`)."""
         self.pose_latency_ms: list[float] = []
         self._lock = threading.Lock()
         self._record_images = record_images
@@ -70,12 +73,10 @@ class StackMonitor:
 
     def _count(self, msg: Message) -> None:
         self.counts[msg.KIND] += 1
+        self.end.saw(msg)
         if msg.KIND in self.indices:
             self.indices[msg.KIND].add(msg.header.frame_index)
-            self.last_result = time.monotonic()
-        if msg.KIND == "overlay":
-            self.last_result = time.monotonic()
-        elif msg.KIND == "fit" and msg.failed:
+        if msg.KIND == "fit" and msg.failed:
             self.fits_failed += 1
             self.fits_no_face += len(msg.landmarks) == 0
         elif msg.KIND == "pose":
@@ -96,16 +97,6 @@ class StackMonitor:
             if not missing or time.monotonic() >= deadline:
                 return missing
             time.sleep(0.02)
-
-    def last_fit_in(self) -> bool:
-        """Whether the fit of the stream's last frame has arrived."""
-        if self.eos is None:
-            return False
-        with self._lock:
-            return self.eos.total_frames == 0 or self.eos.total_frames - 1 in self.indices["fit"]
-
-    def quiet_for(self) -> float:
-        return time.monotonic() - self.last_result
 
     def summary(self, exclude: str = "") -> dict[str, Any]:
         """Counts, end of stream, each service's last status and the frames lost, as plain data."""

@@ -23,6 +23,7 @@ from services.bus.options import (
     option,
     options_from,
 )
+from services.stack.drain import DRAIN_MAX, DRAIN_QUIET
 from services.stack.registry import SERVICES
 
 RUN_OPTIONS: dict[str, tuple[str, ...] | None] = {
@@ -62,9 +63,10 @@ class LaunchOptions(Options):
     restart: bool = option(True, "restart services that die")
     start_timeout: float = option(120.0, "seconds to wait for the services to start",
                                   check=in_range(1))
-    drain_quiet: float = option(0.75, "after end of stream, seconds of quiet that end the run",
+    drain_quiet: float = option(DRAIN_QUIET, "after end of stream, seconds of quiet that end "
+                                "the run",
                                 check=in_range(0))
-    drain_max: float = option(20.0, "seconds to wait for results after end of stream",
+    drain_max: float = option(DRAIN_MAX, "seconds to wait for results after end of stream",
                               check=in_range(0))
 
 

@@ -16,7 +16,7 @@ from proto.golden import golden_messages
 from services.bus.connection import BusOptions
 from services.bus.options import options_argv
 from services.bus.session import Service
-from services.cli.bus_cmd import DRAIN_QUIET, EndOfRun, describe, record_keys
+from services.cli.bus_cmd import describe, record_keys
 from services.stack.recorder import load_messages
 
 
@@ -35,23 +35,6 @@ def test_record_keys_leave_images_out_unless_asked() -> None:
     assert "aamtrack/cam0/fit" in keys and "aamtrack/cam0/status/*" in keys
     assert not any(k.endswith(("/frame", "/overlay")) for k in keys)
     assert "aamtrack/cam0/frame" in record_keys("cam0", frames=True, overlays=False)
-
-
-def test_a_recording_until_eos_waits_for_the_last_frames_fit() -> None:
-    golden = golden_messages()  # a fit of frame 42, an end of stream of 43 frames
-    end = EndOfRun(drain_max=20.0)
-    end.saw(golden["eos"])
-    assert not end.over()  # frame 42's fit has not come (fits come after the end of stream)
-    end.eos_at -= 19.0
-    assert not end.over()
-    end.saw(golden["fit"])
-    assert not end.over()  # it came just now: other results may follow
-    end.last -= DRAIN_QUIET
-    assert end.over()
-    late = EndOfRun(drain_max=20.0)
-    late.saw(golden["eos"])
-    late.eos_at -= 20.0
-    assert late.over()  # no fit within --drain-max: over all the same
 
 
 def start(*args: str) -> subprocess.Popen[str]:
