@@ -117,14 +117,12 @@ class Tracker:
     def _detect_and_fit(self, image: np.ndarray, angle: float) -> FitResult | None:
         """The fit from the largest face found in ``image`` turned by ``-angle``; None when
         there is none."""
-        if angle == 0.0:
-            boxes = self.detector.detect(image)
-            return self.fitter.fit_box(image, boxes[0]) if len(boxes) else None
-        view, to_view = rotated_view(image, angle)
+        view, to_view = (image, None) if angle == 0.0 else rotated_view(image, angle)
         boxes = self.detector.detect(view)
         if len(boxes) == 0:
             return None
-        return mapped(self.fitter.fit_box(view, boxes[0]), to_view.inverse())
+        result = self.fitter.fit_box(view, boxes[0])
+        return result if to_view is None else mapped(result, to_view.inverse())
 
 
 def _moving(before: FitResult, last: FitResult) -> bool:
