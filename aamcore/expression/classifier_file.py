@@ -38,7 +38,7 @@ from aamcore.expression.face_classifier import FittedFaceClassifier, LinearModel
 from aamcore.expression.lda import FisherMahalanobis, MahalanobisModel
 from aamcore.expression.spec import FEATURE_VERSION, PipelineSpec
 from aamcore.expression.svm import SVMExpressionClassifier, SVMModel
-from aamcore.io.versioned import checked_header
+from aamcore.io.versioned import checked_header, save_npz
 
 FORMAT_NAME = "aamtrack-expression-classifier"
 FORMAT_VERSION = 2
@@ -206,11 +206,12 @@ class ExpressionClassifier:
         path = Path(path)
         if path.suffix != ".npz":
             path = path.with_name(path.name + ".npz")
-        header = np.frombuffer(json.dumps(self.header()).encode("utf-8"), dtype=np.uint8)
+        text = json.dumps(self.header(), sort_keys=True)
+        header = np.frombuffer(text.encode("utf-8"), dtype=np.uint8)
         arrays = {k: np.asarray(v) for k, v in self.model.to_arrays().items()}
         if self.pipeline.template is not None:
             arrays[_TEMPLATE] = np.asarray(self.pipeline.template, np.float64)
-        np.savez(path, **{_HEADER: header}, **arrays)
+        save_npz(path, {_HEADER: header, **arrays})
         return path
 
     @classmethod

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from aamcore.io.landmarks import LandmarkScheme
-from aamcore.io.versioned import checked_header
+from aamcore.io.versioned import checked_header, save_npz
 from aamcore.model.aam import AAM
 from aamcore.model.combined import CombinedModel
 from aamcore.model.pca import PCA
@@ -121,7 +121,7 @@ def save_model(
     }
     arrays.update({EXTRA_PREFIX + k: v for k, v in (extra_arrays or {}).items()})
     tmp = path.with_suffix(".tmp.npz")
-    np.savez(tmp, **arrays)
+    save_npz(tmp, arrays)
     tmp.replace(path)
     return path
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass
 
@@ -15,6 +14,7 @@ from aamcore.model.combined import CombinedModel
 from aamcore.model.procrustes import generalised_procrustes
 from aamcore.model.shape import ShapeModel
 from aamcore.model.texture import TextureModel
+from aamcore.reproducible import one_blas_thread
 from aamcore.warp.reference_frame import ReferenceFrame, delaunay_triangles, scale_for_pixels
 
 MIN_IMAGES = 3
@@ -182,6 +182,7 @@ def _check_texture_length(texture: TextureModel, frame: ReferenceFrame) -> None:
         )
 
 
+@one_blas_thread
 def train_aam(
     samples: list[FaceSample],
     scheme: LandmarkScheme,
@@ -210,7 +211,6 @@ def train_aam(
     TrainingError
         Too few good images, or too few for the variance asked.
     """
-    start = time.perf_counter()
     _check_samples(samples, scheme)
     sampled = _sample_in_final_frame(samples, scheme, config, progress)
     shape_model, kept, n = sampled.shape_model, sampled.kept, len(sampled.kept)
@@ -232,7 +232,6 @@ def train_aam(
         "train_images": [s.image_id() for s in kept],
         "skipped": sampled.skipped,
         "config": asdict(config),
-        "train_seconds": round(time.perf_counter() - start, 3),
     }
     _check_texture_length(texture_model, sampled.frame)
     return AAM(

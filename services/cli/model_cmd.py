@@ -58,7 +58,7 @@ def print_summary(header: dict[str, Any], path: Path) -> None:
         print(
             f"  trained on {summary.get('images')} images "
             f"({summary.get('subjects', 0)} subjects) from {summary.get('source')}, "
-            f"{len(summary.get('skipped', []))} skipped, in {summary.get('train_seconds')} s"
+            f"{len(summary.get('skipped', []))} skipped"
         )
     for name, info in header.get("attachments", {}).items():
         print(f"  attachment {name}: {info}")

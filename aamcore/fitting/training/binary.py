@@ -31,6 +31,7 @@ from aamcore.fitting.training.quality import (
     quality_samples,
     train_quality_stage,
 )
+from aamcore.progress import note
 
 Bar = Callable[[str], Callable[[Iterable[Any]], Iterable[Any]]]
 """A progress-bar factory: ``bar(desc)(items)`` (:func:`aamcore.progress.bar`)."""
@@ -183,15 +184,16 @@ def train_binary_cascade(
     greys = [f.grey for f in faces]
     coarse = train_hog_cascade(greys, samples, space, config.coarse, config.hog_ridge,
                                config.n_jobs, bar("coarse HOG stages"))
-    report["coarse_seconds"] = time.perf_counter() - begun
+    coarse_seconds = time.perf_counter() - begun
     samples = tracking_samples(space, faces, config, rng)
     ferns = train_fern_cascade(PackedImages.pack(greys), samples, space, config.tracking,
                                np.random.default_rng(config.seed + 2), config.n_jobs,
                                bar("fern stages"))
-    report["fern_seconds"] = time.perf_counter() - begun - report["coarse_seconds"]
+    fern_seconds = time.perf_counter() - begun - coarse_seconds
     quality = quality_stage_of(space, faces, no_faces, config,
                                np.random.default_rng(config.seed + 3))
     report.update(faces=len(faces), shape_modes=int(space.modes.shape[1]),
-                  no_face_frames=len(no_faces), seconds=time.perf_counter() - begun,
-                  config=config.to_json())
+                  no_face_frames=len(no_faces), config=config.to_json())
+    note(f"local-binary cascade trained in {time.perf_counter() - begun:.0f} s (coarse stages "
+         f"{coarse_seconds:.0f} s, fern stages {fern_seconds:.0f} s)")
     return BinaryCascade(space, coarse, ferns, quality, config.threshold, report)

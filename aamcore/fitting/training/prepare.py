@@ -37,6 +37,7 @@ from aamcore.model.cache import cache_key, cached_file
 from aamcore.model.training import TrainConfig, train_aam
 from aamcore.progress import bar as progress_bar
 from aamcore.progress import note
+from aamcore.reproducible import one_blas_thread
 
 RECIPE = "fitting v8"
 """Names the training below in the cache key: change it when the training changes."""
@@ -77,6 +78,7 @@ def subset(samples: Sequence[FaceSample], n: int | None) -> list[FaceSample]:
     return [samples[int(k * step)] for k in range(n)]
 
 
+@one_blas_thread
 def train_fitting_model(
     aam: AAM,
     samples: list[FaceSample],

@@ -22,7 +22,7 @@ def test_the_cascade_has_what_the_recipe_asks(synthetic_binary, synthetic_binary
     assert synthetic_binary.threshold == config.threshold
     report = synthetic_binary.report
     assert report["faces"] == 40 and report["no_face_frames"] == 6
-    assert report["config"]["tracking"][0]["n_ferns"] == 3 and report["seconds"] > 0
+    assert report["config"]["tracking"][0]["n_ferns"] == 3
 
 
 def test_default_recipe_is_the_research_one() -> None:
