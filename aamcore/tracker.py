@@ -31,6 +31,7 @@ from aamcore.expression.recogniser import ExpressionRecogniser, Recognition
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
 from aamcore.fitting.result import FitResult
+from aamcore.fitting.search import SearchSchedule
 from aamcore.fitting.tracker import Tracker
 from aamcore.model.similarity import Similarity
 from aamcore.pose import IntrinsicsError, PoseError
@@ -178,6 +179,9 @@ class FaceTracker:
     expression_smooth : int
         Average the expression scores over this many classified frames (the
         expression service's ``--smooth``; 1: none).
+    search : SearchSchedule, optional
+        Which frames without a face are searched (the stack's default; for offline
+        work where time is no object, :meth:`SearchSchedule.every_frame`).
     """
 
     def __init__(self, model: str | Path | FittingModel | None = None,
@@ -185,7 +189,7 @@ class FaceTracker:
                  camera: str | float | None = None, *, algorithm: str = defaults.ALGORITHM,
                  failure_test: str = defaults.FAILURE_TEST, smoothing: bool = False,
                  pose_estimator: str = defaults.POSE_ESTIMATOR,
-                 expression_smooth: int = 1) -> None:
+                 expression_smooth: int = 1, search: SearchSchedule | None = None) -> None:
         self.model, path = _model(model)
         self.expression = _recogniser(classifier, self.model, path, expression_smooth)
         # Sampled only for a classifier that reads the appearance c (a method such as
@@ -193,7 +197,7 @@ class FaceTracker:
         fitter = Fitter(self.model, algorithm, failure_test=failure_test,
                         appearance=self.expression is not None
                         and "appearance" in self.expression.classifier.pipeline.features.blocks)
-        self.tracker = Tracker(fitter, HaarFaceDetector())
+        self.tracker = Tracker(fitter, HaarFaceDetector(), search)
         calibration = camera if isinstance(camera, str | Path) else None
         fov = float(camera) if isinstance(camera, int | float) else defaults.FOV_DEG
         cameras = Cameras(fov, str(calibration) if calibration else None)

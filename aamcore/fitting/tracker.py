@@ -7,9 +7,10 @@ from typing import Protocol
 
 import numpy as np
 
-from aamcore.detection.haar import HaarFaceDetector
+from aamcore.detection.haar import HaarFaceDetector, to_grey_uint8
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.result import FitResult
+from aamcore.fitting.search import SearchSchedule
 from aamcore.fitting.upright import mapped, roll_of, rotated_view
 
 TURN_DEG = 12.0
@@ -39,11 +40,18 @@ class Tracker:
     fitter : Fitter
     detector : FaceDetector, optional
         Haar by default.
+    search : SearchSchedule, optional
+        Which frames without a face are searched, and how (the default's eager start,
+        then spread passes).
     """
 
-    def __init__(self, fitter: Fitter, detector: FaceDetector | None = None) -> None:
+    def __init__(self, fitter: Fitter, detector: FaceDetector | None = None,
+                 search: SearchSchedule | None = None) -> None:
         self.fitter = fitter
         self.detector = detector or HaarFaceDetector()
+        self.search = search or SearchSchedule()
+        self.misses = 0
+        """Frames in a row without a good fit (the search schedule's clock)."""
         self.last: FitResult | None = None
         self.before: FitResult | None = None
         """The good fit of the frame before the last, when that frame had one."""
@@ -57,6 +65,7 @@ class Tracker:
         """Forget the last fit and its roll: the next frame starts from a detection."""
         self.last = self.before = None
         self.roll = 0.0
+        self.misses = 0
 
     def track(self, image: np.ndarray) -> FitResult | None:
         """Fit ``image``; None when no face is found.
@@ -66,8 +75,9 @@ class Tracker:
         another size than the last (the last fit says nothing of it). The face
         is looked for upright and in the frame turned by the last good fit's
         roll (or by +-:data:`SEARCH_DEG`, in turn), so that a rolled face is
-        found again. A failed fit from a detection is returned but not tracked
-        from: the next frame detects again.
+        found again, on the frames and in the ways :attr:`search` picks. A
+        failed fit from a detection is returned but not tracked from: the next
+        frame detects again.
 
         Raises
         ------
@@ -84,14 +94,17 @@ class Tracker:
             result = self._track(image, self.last)
             if result.ok:
                 return self._keep(result)
-        self.detections += 1
+        upright, turned = self.search.passes(self.misses)
+        angles = [0.0] * upright + [self._turn()] * turned
+        self.detections += bool(angles)
         found = None
-        for angle in (0.0, self._turn()):
+        for angle in angles:
             result = self._detect_and_fit(image, angle)
             if result is not None and result.ok:
                 return self._keep(result)
             found = found or result
         self.last = self.before = None
+        self.misses += 1
         return found
 
     def _track(self, image: np.ndarray, last: FitResult) -> FitResult:
@@ -105,6 +118,7 @@ class Tracker:
 
     def _keep(self, result: FitResult) -> FitResult:
         self.before, self.last, self.roll = self.last, result, roll_of(result)
+        self.misses = 0
         return result
 
     def _turn(self) -> float:
@@ -117,12 +131,17 @@ class Tracker:
     def _detect_and_fit(self, image: np.ndarray, angle: float) -> FitResult | None:
         """The fit from the largest face found in ``image`` turned by ``-angle``; None when
         there is none."""
-        view, to_view = (image, None) if angle == 0.0 else rotated_view(image, angle)
-        boxes = self.detector.detect(view)
+        if angle == 0.0:
+            boxes = self.detector.detect(image)
+            return self.fitter.fit_box(image, boxes[0]) if len(boxes) else None
+        # The search turns the grey frame (a third of the bytes); only a face found turns
+        # the frame itself, to be fitted.
+        grey = to_grey_uint8(image)
+        boxes = self.detector.detect(rotated_view(grey, angle)[0])
         if len(boxes) == 0:
             return None
-        result = self.fitter.fit_box(view, boxes[0])
-        return result if to_view is None else mapped(result, to_view.inverse())
+        view, to_view = rotated_view(image, angle)
+        return mapped(self.fitter.fit_box(view, boxes[0]), to_view.inverse())
 
 
 def _moving(before: FitResult, last: FitResult) -> bool:

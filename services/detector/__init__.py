@@ -1,2 +1,2 @@
-"""The face detector service: Haar detection on request (a Zenoh queryable) and at a low
-rate while no face is tracked (:mod:`services.detector.service`)."""
+"""The face detector service: Haar detection on request, a Zenoh queryable
+(:mod:`services.detector.service`)."""

@@ -14,12 +14,8 @@ def _max_side_problem(value: int) -> str:
 
 @dataclass(frozen=True)
 class DetectorOptions(Options):
-    """How the detector searches."""
+    """How the detector searches a frame it is asked about."""
 
-    rate: float = option(2.0, "searches a second while no face is tracked (0: only on request)",
-                         check=in_range(0, 100))
-    idle: float = option(1.0, "seconds without a good fit after which to search",
-                         check=in_range(0))
     scale_factor: float = option(DETECTOR["scale_factor"], "Haar scale step",
                                  check=in_range(1.01, 2.0))
     min_neighbors: int = option(DETECTOR["min_neighbors"], "Haar neighbours a detection needs",

@@ -1,16 +1,14 @@
-"""The face detector: Haar cascade on request, and at a low rate while no face is tracked.
+"""The face detector: Haar cascade on request.
 
-``aamtrack service detector [--rate HZ]``
+``aamtrack service detector [--scale-factor F] [--min-neighbors N] [--max-side PX]``
 
-- **On request**: a queryable on ``aamtrack/<stream>/detect``. The query
-  payload is an encoded ``Frame``; the reply is the ``FaceBoxes`` found in it
-  (an error reply names a frame that does not decode). The fitter asks when it
-  has no face or a fit fails.
-- **Searching**: while no good fit has been published for ``--idle`` seconds,
-  the latest frame is searched ``--rate`` times a second.
-
-Every result is also published on ``aamtrack/<stream>/boxes``. Haar cascades
-give no confidence, so each box scores 1.
+A queryable on ``aamtrack/<stream>/detect``: the query payload is an encoded
+``Frame``, the reply the ``FaceBoxes`` found in it (an error reply names a frame
+that does not decode). The fitter asks when it has no face or a fit fails, on the
+frames its search schedule picks (:class:`aamcore.fitting.search.SearchSchedule`):
+that is the only search, so no frame is searched twice. Every answer is also
+published on ``aamtrack/<stream>/boxes`` (the Rerun logger draws them). Haar
+cascades give no confidence, so each box scores 1.
 """
 
 from __future__ import annotations
@@ -27,7 +25,6 @@ from proto import FaceBoxes, Frame, ProtoError, encode
 from proto.keys import detect_key
 from services.bus.args import parse_service_args
 from services.bus.images import image_of
-from services.bus.inbox import Latest
 from services.bus.process import init_process
 from services.bus.session import Service
 from services.detector.options import DetectorOptions
@@ -36,7 +33,7 @@ NAME = "detector"
 
 
 class Detection:
-    """One detector shared by the query thread and the search loop (calls are serialised)."""
+    """One detector shared by the query threads (calls are serialised)."""
 
     def __init__(self, svc: Service, detector: HaarFaceDetector) -> None:
         self.svc = svc
@@ -72,52 +69,18 @@ class Detection:
         self.svc.publish(boxes)
 
 
-class Tracking:
-    """Whether the fitter holds a face: the time of its last good fit."""
-
-    def __init__(self, svc: Service) -> None:
-        self.svc = svc
-        self.last_good = 0.0
-
-    def on_fit(self, sample: Any) -> None:
-        fit = self.svc.screen.check(sample.payload.to_bytes(), str(sample.key_expr), "fit")
-        if fit is not None and not fit.failed:
-            self.last_good = time.monotonic()
-
-    def lost_for(self) -> float:
-        return time.monotonic() - self.last_good
-
-
-def search(svc: Service, detection: Detection, frames: Latest) -> None:
-    """Detect in the latest frame, if any, and publish its boxes."""
-    got = frames.take()
-    if got is None:
-        return
-    svc.stats.count_in(got.message.header)
-    try:
-        svc.publish(detection.boxes(got.message))
-    except (ProtoError, ValueError) as exc:
-        svc.reject("frame", str(exc))
-
-
-def serve(svc: Service, detector: HaarFaceDetector, opts: DetectorOptions) -> None:
-    """Answer queries and search while no face is tracked, until stopped."""
+def serve(svc: Service, detector: HaarFaceDetector) -> None:
+    """Answer queries until stopped."""
     detection = Detection(svc, detector)
-    tracking = Tracking(svc)
     svc.queryable(detect_key(svc.stream), detection.answer)
-    svc.subscribe(svc.key("fit"), tracking.on_fit)
-    frames = svc.latest("frame") if opts.rate > 0 else None
     svc.ready(f"{detector!r}")
-    period = 1.0 / opts.rate if opts.rate > 0 else 1.0
-    while not svc.wait(period):
-        if frames is not None and tracking.lost_for() >= opts.idle:
-            search(svc, detection, frames)
+    while not svc.wait(1.0):
+        pass
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: ``python -m services.detector.service``."""
-    args = parse_service_args(NAME, "Haar face detection on request and while no face is "
-                              "tracked.", DetectorOptions, argv)
+    args = parse_service_args(NAME, "Haar face detection on request.", DetectorOptions, argv)
     log = init_process(NAME, args.verbose)
     opts: DetectorOptions = args.options
     try:
@@ -129,7 +92,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         log.error("cannot make the Haar detector: %s", exc)
         return 1
     with Service(NAME, args.bus) as svc:
-        serve(svc, detector, opts)
+        serve(svc, detector)
     return 0
 
 

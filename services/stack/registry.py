@@ -30,7 +30,7 @@ SERVICES: dict[str, ServiceInfo] = {
         ServiceInfo("source", "services.source.service", SourceOptions,
                     "frames of a video file, camera or stream URL"),
         ServiceInfo("detector", "services.detector.service", DetectorOptions,
-                    "Haar face detection on request and while no face is tracked"),
+                    "Haar face detection on request"),
         ServiceInfo("fitter", "services.fitter.service", FitterOptions,
                     "landmarks: the AAM tracked from frame to frame"),
         ServiceInfo("pose", "services.pose.service", PoseOptions, "head pose of each fit"),

@@ -34,7 +34,7 @@ def detector(peer: Service, bus_pair: tuple[BusOptions, BusOptions]) -> Iterator
         subprocess.Popen[str]]:
     env = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO_ROOT)}
     proc = subprocess.Popen([sys.executable, "-m", "services", "service", "detector",
-                             *options_argv(bus_pair[1]), "--rate", "0"], env=env, cwd=REPO_ROOT,
+                             *options_argv(bus_pair[1])], env=env, cwd=REPO_ROOT,
                             stderr=subprocess.PIPE, text=True)
     try:
         assert peer.wait_for_alive(["detector"], 30) == [], "the detector did not start"

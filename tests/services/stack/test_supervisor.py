@@ -41,7 +41,7 @@ def test_a_service_that_finishes_is_not_restarted() -> None:
 
 def test_stop_terminates_running_services_cleanly() -> None:
     sup = Supervisor([ServiceSpec("detector", SERVICES["detector"].module,
-                                  ["--stream", "supervised", "--rate", "0"])])
+                                  ["--stream", "supervised"])])
     sup.start()
     wait_until(lambda: sup.alive("detector"))
     time.sleep(1.0)  # let it open its session
