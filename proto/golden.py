@@ -100,6 +100,7 @@ def _status() -> kinds.Status:
         rejected=2,
         lost=1,
         ignored=3,
+        failed=1,
         latency_p50_ms=4.5,
         latency_p99_ms=11.25,
         restarts=0,

@@ -219,6 +219,9 @@ class Status(Message):
     ignored : int
         Valid messages from outside the run (another run or a producer that
         does not own the key), not acted on.
+    failed : int
+        Valid messages taken that the service could not answer (an error while
+        working on them).
     latency_p50_ms, latency_p99_ms : float
         Median and 99th percentile processing latency in milliseconds over a
         recent window; NaN before any frame.
@@ -237,6 +240,7 @@ class Status(Message):
     rejected: int = spec(COUNT)
     lost: int = spec(COUNT)
     ignored: int = spec(COUNT)
+    failed: int = spec(COUNT)
     latency_p50_ms: float = spec(Float(0.0, math.inf, allow_nan=True))
     latency_p99_ms: float = spec(Float(0.0, math.inf, allow_nan=True))
     restarts: int = spec(COUNT)

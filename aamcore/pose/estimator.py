@@ -15,6 +15,7 @@ import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from aamcore import defaults
@@ -159,8 +160,15 @@ class HeadPoseEstimator:
             For a frame size the camera cannot have.
         """
         camera = self.cameras.at(width, height)
-        return HeadPose(self._estimate(np.asarray(landmarks, np.float64), camera, learn),
-                        camera)
+        try:
+            estimate = self._estimate(np.asarray(landmarks, np.float64), camera, learn)
+        except (cv2.error, np.linalg.LinAlgError) as exc:
+            # Degenerate input the checks let through (landmarks within a pixel or two):
+            # no pose, with the solver's complaint, rather than a crash.
+            first = str(exc).strip().splitlines()[-1][:160] if str(exc).strip() else ""
+            raise PoseError(f"no pose: the solver failed on these landmarks "
+                            f"({type(exc).__name__}: {first})") from exc
+        return HeadPose(estimate, camera)
 
     def reset(self) -> None:
         """Forget the face (``contour+calib``: back to the mean head model)."""

@@ -223,6 +223,14 @@ class CameraIntrinsics:
             fs.release()
 
 
+FOCAL_RANGE = (0.005, 100.0)
+"""Focal lengths a camera can have, in multiples of the image side: 0.005 for a field of
+view of 179 degrees, 100 for 0.6 degrees. Beyond them the pose solvers' numbers overflow (a
+calibration with fx = fy = 1e300 made OpenCV's solver raise)."""
+MAX_DISTORTION = 1e4
+"""Largest distortion coefficient accepted (real lenses stay far below)."""
+
+
 def _problem_with(K: np.ndarray, dist: np.ndarray, width: int, height: int) -> str:
     """Describe what is wrong with the values, or return an empty string."""
     if K.shape != (3, 3):
@@ -246,6 +254,13 @@ def _problem_with(K: np.ndarray, dist: np.ndarray, width: int, height: int) -> s
             f"principal point ({K[0, 2]:g}, {K[1, 2]:g}) lies outside the {width}x{height} "
             "image (calibration made at another resolution?)"
         )
+    lo, hi = FOCAL_RANGE
+    for name, f, side in (("fx", K[0, 0], width), ("fy", K[1, 1], height)):
+        if not lo * side <= f <= hi * side:
+            return (f"focal length {name}={f:g} px is not {lo:g} to {hi:g} times the image's "
+                    f"{side} px (a field of view of 0.6 to 179 degrees)")
+    if dist.size and np.max(np.abs(dist)) > MAX_DISTORTION:
+        return f"a distortion coefficient of {np.max(np.abs(dist)):g} (at most {MAX_DISTORTION:g})"
     return ""
 
 

@@ -103,10 +103,11 @@ def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
         if frame is None:
             svc.stats.dropped += 1  # its frame is gone: never received or pushed out
             continue
-        try:
-            svc.publish(draw(svc, compositor, pose, frame.message, opts.jpeg))
-        except (ProtoError, ValueError) as exc:
-            svc.reject("pose", f"no overlay: {exc}")
+        with svc.answering(f"pose {pose.header.frame_index}"):
+            try:
+                svc.publish(draw(svc, compositor, pose, frame.message, opts.jpeg))
+            except (ProtoError, ValueError) as exc:
+                svc.reject("pose", f"no overlay: {exc}")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -6,6 +6,7 @@ session, the screen, the counts and the stop state it uses.
 
 from __future__ import annotations
 
+import contextlib
 import re
 import threading
 import time
@@ -153,6 +154,33 @@ class Receiving:
             self.reject(source, exc.reason)
             return None
 
+    @contextlib.contextmanager
+    def answering(self, what: str) -> Iterator[None]:
+        """The work on one message (``what`` names it): an unexpected error in it is counted
+        as ``failed``, logged with its traceback the first time one of its shape is seen,
+        and the service goes on with the next message."""
+        try:
+            yield
+        except Exception as exc:  # whatever one message does, the service survives it
+            self.stats.failed += 1
+            reason = f"{type(exc).__name__}: {exc}"
+            if self._first_of_shape("failed " + reason):
+                self.log.exception("could not answer %s: %s", what, reason)
+
+    def _first_of_shape(self, reason: str) -> bool:
+        """Whether a reason of this shape (numbers aside) is new and may be logged."""
+        shape = re.sub(r"\d+", "#", reason)[:200]
+        if shape in self._reasons:
+            return False
+        if len(self._reasons) < MAX_LOGGED_REASONS:
+            self._reasons.add(shape)
+            return True
+        if len(self._reasons) == MAX_LOGGED_REASONS:
+            self._reasons.add("")
+            self.log.warning("more kinds of rejected or failed input: counted in the status "
+                             "only")
+        return False
+
     def reject(self, source: str, reason: str) -> None:
         """Count one rejected input; log its reason the first time a reason of its shape is seen.
 
@@ -160,12 +188,5 @@ class Receiving:
         input gives a handful of log lines; the total is in the status.
         """
         self.stats.rejected += 1
-        shape = re.sub(r"\d+", "#", reason)[:200]
-        if shape in self._reasons:
-            return
-        if len(self._reasons) < MAX_LOGGED_REASONS:
-            self._reasons.add(shape)
+        if self._first_of_shape(reason):
             self.log.warning("rejected input from %s: %s", source, reason)
-        elif len(self._reasons) == MAX_LOGGED_REASONS:
-            self._reasons.add("")
-            self.log.warning("more kinds of rejected input: counted in the status only")

@@ -253,8 +253,8 @@ class Service(Receiving, Presence):
             self.header(s.last_frame, s.last_capture_ns or None),
             service=self.name, state=self._state, frames_in=s.frames_in,
             frames_out=s.frames_out, dropped=s.dropped, rejected=s.rejected, lost=s.lost,
-            ignored=s.ignored, latency_p50_ms=p50, latency_p99_ms=p99, restarts=self.restarts,
-            message=self._message,
+            ignored=s.ignored, failed=s.failed, latency_p50_ms=p50, latency_p99_ms=p99,
+            restarts=self.restarts, message=self._message,
         )
 
     def _status_loop(self) -> None:

@@ -4,8 +4,9 @@ Counting rule: ``frames_in`` counts valid messages taken for processing,
 ``frames_out`` messages published, ``dropped`` messages skipped by design
 (overwritten in a latest-only inbox, or skipped by the service), ``rejected``
 messages that are not valid, ``ignored`` valid messages from outside the run
-(another run id, or a producer that does not own the key) and ``lost``
-frames that never arrived (gaps in the numbering of their run).
+(another run id, or a producer that does not own the key), ``failed`` valid
+messages taken that could not be answered (an error while working on them) and
+``lost`` frames that never arrived (gaps in the numbering of their run).
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ class ServiceStats:
     rejected: int = 0
     lost: int = 0
     ignored: int = 0
+    failed: int = 0
     last_frame: int = 0
     last_capture_ns: int = 0
     latency: LatencyWindow = field(default_factory=LatencyWindow)

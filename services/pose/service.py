@@ -71,6 +71,24 @@ class PoseCounts:
         return "; ".join(parts)
 
 
+def answer(svc: Service, fit: Fit, poses: HeadPoseTracker, counts: PoseCounts) -> None:
+    """Publish the pose of one fit (none for a fit without landmarks, or one the estimator
+    refuses: counted by reason)."""
+    if len(fit.landmarks) == 0:
+        poses.reset()
+        counts.no_face += 1
+        return
+    try:
+        pose = pose_message(svc, fit, poses)
+    except (PoseError, IntrinsicsError, ProtoError) as exc:
+        counts.no_pose[reason_key(str(exc))] += 1
+        svc.reject("fit", f"no pose: {exc}")
+        return
+    svc.publish(pose)
+    if not pose.reliable:
+        counts.unreliable[reason_key(pose.reason)] += 1
+
+
 def serve(svc: Service, poses: HeadPoseTracker, capacity: int) -> None:
     """Estimate poses until stopped."""
     counts = PoseCounts()
@@ -81,18 +99,8 @@ def serve(svc: Service, poses: HeadPoseTracker, capacity: int) -> None:
     for got in fits:
         fit = got.message
         assert isinstance(fit, Fit)
-        if len(fit.landmarks) == 0:
-            poses.reset()
-            counts.no_face += 1
-        else:
-            try:
-                pose = pose_message(svc, fit, poses)
-                svc.publish(pose)
-                if not pose.reliable:
-                    counts.unreliable[reason_key(pose.reason)] += 1
-            except (PoseError, IntrinsicsError, ProtoError) as exc:
-                counts.no_pose[reason_key(str(exc))] += 1
-                svc.reject("fit", f"no pose: {exc}")
+        with svc.answering(f"fit {fit.header.frame_index}"):
+            answer(svc, fit, poses, counts)
         calib = estimator.calibration
         svc.set_state("running", counts.line(None if calib is None else calib.refinements))
 

@@ -100,10 +100,14 @@ def log_stream(svc: Service, logger: StreamLogger, opts: RerunOptions) -> None:
     for got in svc.messages_of(inputs(svc), tick=0.05):
         now = time.monotonic()
         if got is not None:
-            try:
-                logger.log(got.message)
-            except (ValueError, TypeError, RuntimeError) as exc:
-                svc.reject(got.key, f"{got.message.KIND} not logged: {exc}")
+            logged = False
+            with svc.answering(f"{got.message.KIND} {got.message.header.frame_index}"):
+                try:
+                    logger.log(got.message)
+                    logged = True
+                except (ValueError, TypeError, RuntimeError) as exc:
+                    svc.reject(got.key, f"{got.message.KIND} not logged: {exc}")
+            if not logged:
                 continue
             last_at = now
             if isinstance(got.message, EndOfStream) and ended_at is None:

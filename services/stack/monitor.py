@@ -141,6 +141,7 @@ def _status_dict(s: Status) -> dict[str, Any]:
 
     return {"state": s.state, "frames_in": s.frames_in, "frames_out": s.frames_out,
             "dropped": s.dropped, "rejected": s.rejected, "lost": s.lost, "ignored": s.ignored,
+            "failed": s.failed,
             "latency_p50_ms": num(s.latency_p50_ms), "latency_p99_ms": num(s.latency_p99_ms),
             "restarts": s.restarts, "message": s.message}
 

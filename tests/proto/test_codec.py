@@ -192,7 +192,7 @@ def largest_messages() -> list[Message]:
             True, text, "cpu", 1.0,
         ),
         Expression(header, names[0], names, np.zeros(MAX_LIST_LEN), smoothed=True),
-        Status(header, "s" * 64, "running", *[MAX_INT] * 6, 1.0, 1.0, MAX_INT, text),
+        Status(header, "s" * 64, "running", *[MAX_INT] * 7, 1.0, 1.0, MAX_INT, text),
         EndOfStream(header, MAX_INT, text),
     ]
 

@@ -108,6 +108,13 @@ def test_missing_keys_and_bad_values(tmp_path: Path) -> None:
         CameraIntrinsics(np.diag([-1.0, 1.0, 1.0]), None, 640, 480)
     with pytest.raises(IntrinsicsError, match="form"):
         CameraIntrinsics(np.ones((3, 3)), None, 640, 480)
+    huge = np.array([[1e300, 0.0, 320.0], [0.0, 1e300, 240.0], [0.0, 0.0, 1.0]])
+    with pytest.raises(IntrinsicsError, match="fx=1e.300 px is not 0.005 to 100 times"):
+        CameraIntrinsics(huge, None, 640, 480)
+    with pytest.raises(IntrinsicsError, match="fy=0.001"):
+        CameraIntrinsics(np.array([[500.0, 0, 320], [0, 1e-3, 240], [0, 0, 1]]), None, 640, 480)
+    with pytest.raises(IntrinsicsError, match="distortion coefficient of 1e.06"):
+        CameraIntrinsics(K, np.array([1e6, 0, 0, 0, 0.0]), 640, 480)
 
 
 def test_normalize_undoes_project_with_distortion() -> None:
