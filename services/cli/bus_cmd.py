@@ -174,6 +174,13 @@ def record_keys(stream: str, frames: bool, overlays: bool) -> list[str]:
 
 def cmd_record(args: argparse.Namespace) -> int:
     """``aamtrack record --out FILE``."""
+    from services.stack.preflight import PreflightError, check_output
+
+    try:
+        check_output("--out", args.out)
+    except PreflightError as exc:
+        print(f"aamtrack record: error: {exc}", file=sys.stderr)
+        return 2
     client = _client(args)
     if client is None:
         return 2

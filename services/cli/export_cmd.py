@@ -52,6 +52,20 @@ def _writers(args: argparse.Namespace, n_points: int, class_names: tuple[str, ..
             for kind, path in (("csv", args.csv), ("jsonl", args.jsonl)) if path is not None]
 
 
+def _check_outputs(args: argparse.Namespace) -> str:
+    """The first problem with an output file asked for ("" when there is none)."""
+    from services.stack.preflight import PreflightError, check_output
+
+    for option in ("csv", "jsonl", "rrd"):
+        path = getattr(args, option, None)
+        if path is not None:
+            try:
+                check_output(f"--{option}", path)
+            except PreflightError as exc:
+                return str(exc)
+    return ""
+
+
 def _fail(command: str, message: str, code: int) -> int:
     print(f"aamtrack {command}: error: {message}", file=sys.stderr)
     return code
@@ -64,6 +78,8 @@ def cmd_export(args: argparse.Namespace) -> int:
 
     if args.csv is None and args.jsonl is None and args.rrd is None:
         return _fail("export", "give --csv, --jsonl and/or --rrd", 2)
+    if problem := _check_outputs(args):
+        return _fail("export", problem, 2)
     try:
         recording = read_recording(args.recording)
     except (RecordingError, OSError) as exc:
@@ -105,6 +121,10 @@ def cmd_track(args: argparse.Namespace) -> int:
         return _fail("track", "give --csv and/or --jsonl", 2)
     if not args.video.is_file():
         return _fail("track", f"{args.video}: no such file", 2)
+    if problem := _check_outputs(args):
+        return _fail("track", problem, 2)
+    if args.fov is not None and not 1.0 <= args.fov <= 179.0:
+        return _fail("track", f"--fov {args.fov:g}: must be a number from 1 to 179", 2)
     from aamcore.model.file import ModelFileError
     from aamcore.tracker import FaceTracker
 

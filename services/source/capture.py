@@ -9,6 +9,7 @@ file ``loops`` times.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -71,6 +72,10 @@ def _open_capture(spec: InputSpec) -> cv2.VideoCapture:
             raise SourceError(f"{spec.describe()}: the file is empty")
         return cv2.VideoCapture(str(path))
     if spec.camera is not None:
+        # On Linux a camera is a V4L2 device: its absence is told without OpenCV's warnings.
+        if sys.platform.startswith("linux") and not Path(f"/dev/video{spec.camera}").exists():
+            raise SourceError(f"{spec.describe()}: no such camera (/dev/video{spec.camera} "
+                              "does not exist)")
         return cv2.VideoCapture(spec.camera)
     params = [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, OPEN_TIMEOUT_MS,
               cv2.CAP_PROP_READ_TIMEOUT_MSEC, OPEN_TIMEOUT_MS]

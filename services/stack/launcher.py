@@ -286,6 +286,7 @@ def prepared(opts: StackOptions) -> StackOptions:
     bus = BusOptions(opts.launch.stream, "peer", connect=(DEFAULT_ENDPOINT,), run_id="run-check")
     preflight.check_service_args(opts, bus)
     preflight.check_viewer(opts)
+    preflight.check_outputs(opts)
     preflight.check_input(opts)
     preflight.check_models(opts)
     return prepare_models(opts)

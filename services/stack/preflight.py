@@ -10,15 +10,19 @@ instead of starting the stack and failing later:
 - the fitting model (loaded once), the expression classifier (loaded and
   matched to the model) and the camera calibration (read and checked);
 - the endpoint the launcher listens on (free, or given in a form Zenoh reads);
-- the Rerun viewer the recording streams to (``--connect``): it must answer.
+- the Rerun viewer the recording streams to (``--connect``): it must answer;
+- every file the run writes (``--rrd``, ``--record``, ``--summary``): a file that can be
+  created where it is asked for (:func:`check_output`, which the other commands use too).
 """
 
 from __future__ import annotations
 
 import contextlib
 import io
+import os
 import re
 import socket
+from pathlib import Path
 from typing import Any
 
 from services.bus.args import parse_service_args, service_argv
@@ -49,16 +53,51 @@ def check_service_args(opts: StackOptions, bus: BusOptions) -> None:
 
 
 def check_input(opts: StackOptions) -> None:
-    """Open a video input once (cameras and streams are opened by the source)."""
+    """Open a video file or a camera once (a stream URL is opened by the source, which waits
+    for it)."""
     source = opts.services.get("source")
-    if source is None or source.video is None:
+    if source is None or (source.video is None and source.camera is None):
         return
     from services.source.capture import InputSpec, SourceError, VideoInput
 
+    option = "--video" if source.video is not None else "--camera"
     try:
         VideoInput(InputSpec.of(source)).close()
     except SourceError as exc:
-        raise PreflightError(f"--video: {exc}") from None
+        raise PreflightError(f"{option}: {exc}") from None
+
+
+def check_output(option: str, path: str | os.PathLike[str]) -> None:
+    """A file can be written at ``path``: not a folder, in a folder that exists, creatable
+    (tried: a place such as ``/proc`` refuses only then); a file made for the try is removed.
+
+    Raises
+    ------
+    PreflightError
+        Naming ``option`` and the problem.
+    """
+    target = Path(path)
+    if target.is_dir():
+        raise PreflightError(f"{option} {target}: is a folder; give a file name")
+    if not target.parent.is_dir():
+        raise PreflightError(f"{option} {target}: the folder {target.parent} does not exist")
+    existed = target.exists()
+    try:
+        with open(target, "ab"):
+            pass
+    except OSError as exc:
+        raise PreflightError(f"{option} {target}: cannot be written ({exc.strerror})") from None
+    if not existed:
+        target.unlink(missing_ok=True)
+
+
+def check_outputs(opts: StackOptions) -> None:
+    """Every file the run is asked to write."""
+    rerun = opts.services.get("rerun")
+    for option, path in (("--record", opts.launch.record), ("--summary", opts.launch.summary),
+                         ("--rrd", getattr(rerun, "rrd", None))):
+        if path:
+            check_output(option, path)
 
 
 def check_models(opts: StackOptions) -> None:
@@ -74,13 +113,18 @@ def check_models(opts: StackOptions) -> None:
             raise PreflightError(f"--model: {exc}") from None
     _check_classifier(opts.services.get("expression"))
     pose = opts.services.get("pose")
-    if pose is not None and pose.calibration:
-        from aamcore.pose import CameraIntrinsics, IntrinsicsError
+    if pose is not None:
+        from aamcore.pose import IntrinsicsError, PoseError
+        from aamcore.pose.estimator import Cameras, HeadPoseEstimator
 
         try:
-            CameraIntrinsics.from_file(pose.calibration)
+            cameras = Cameras(pose.fov, pose.calibration)
         except (IntrinsicsError, OSError, ValueError) as exc:
             raise PreflightError(f"--calibration: {exc}") from None
+        try:  # its head model comes from the data folder
+            HeadPoseEstimator(cameras, method=pose.estimator)
+        except (PoseError, OSError, ValueError) as exc:
+            raise PreflightError(f"pose: {exc}") from None
 
 
 def _check_classifier(expression: Any) -> None:

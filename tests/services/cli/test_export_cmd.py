@@ -110,3 +110,25 @@ def test_track_writes_the_rows_of_a_video_and_says_when_it_is_cut_short(
     assert 10 < len(list(csv.DictReader(out.open()))) < 72
     done = run_cli("track", str(tmp_path / "missing.mp4"), "--csv", str(out))
     assert done.returncode == 2 and "no such file" in done.stderr
+
+
+def test_outputs_and_numbers_are_checked_before_any_work(
+    single_face: Path, model_path: Path, tmp_path: Path,
+    run_cli: Callable[..., subprocess.CompletedProcess[str]],
+) -> None:
+    missing = tmp_path / "no" / "out.csv"
+    cases = [
+        (("track", str(single_face), "--csv", str(missing), "--model", str(model_path)),
+         f"--csv {missing}: the folder {missing.parent} does not exist"),
+        (("track", str(single_face), "--jsonl", str(tmp_path), "--model", str(model_path)),
+         "is a folder"),
+        (("track", str(single_face), "--csv", str(tmp_path / "a.csv"), "--fov", "-5"),
+         "--fov -5: must be a number from 1 to 179"),
+        (("export", str(single_face), "--rrd", "/proc/x.rrd"), "--rrd /proc/x.rrd"),
+        (("record", "--out", "/proc/x.rec"), "--out /proc/x.rec: cannot be written"),
+    ]
+    for argv, expected in cases:
+        done = run_cli(*argv, timeout=60)
+        lines = [line for line in done.stderr.splitlines() if line.strip()]
+        assert done.returncode == 2 and len(lines) == 1 and expected in lines[0], (argv, lines)
+    assert not (tmp_path / "a.csv").exists()

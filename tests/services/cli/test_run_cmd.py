@@ -72,6 +72,13 @@ def test_every_option_error_exits_2_at_start_with_one_line(
             (["--video", video, "--endpoint", busy_endpoint], "--endpoint"),
             (["--video", video, "--set", "fitter:--capacity=0"], "fitter: --capacity 0"),
             (["--video", video, "--host", "compute"], "--host goes with --stack"),
+            (["--video", video, "--rrd", "/proc/x.rrd"], "--rrd /proc/x.rrd: cannot be written"),
+            (["--video", video, "--rrd", str(tmp_path / "no" / "x.rrd")],
+             "the folder " + str(tmp_path / "no") + " does not exist"),
+            (["--video", video, "--rrd", str(tmp_path)], "is a folder"),
+            (["--video", video, "--summary", str(tmp_path / "no" / "s.json")], "--summary"),
+            (["--video", video, "--record", "/proc/x.rec"], "--record /proc/x.rec"),
+            (["--camera", "7"], "--camera: camera 7"),
         ]
         for argv, expected in cases:
             done = run_cli("run", *argv, timeout=60)
