@@ -7,6 +7,7 @@ a version other than :data:`SCHEMA_VERSION` before it looks at anything else.
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass, fields
 from typing import Any
@@ -19,7 +20,19 @@ SCHEMA_VERSION = 4
 """Version of the message contract; any change to a field or a rule bumps it.
 Version 2: ``run_id`` in the header; ``fit.similarity`` (was ``pose``) and the
 fit's frame size; ``status.lost`` and ``status.ignored``. Version 3:
-``media_time_ns`` in the header. Version 4: ``status.failed``."""
+``media_time_ns`` in the header. Version 4: ``status.failed``, the header's ``auth``."""
+
+
+AUTH_HEX = 32
+"""Hex digits of a signature (:mod:`proto.auth`)."""
+_HEX = re.compile(f"[0-9a-f]{{{AUTH_HEX}}}")
+
+
+def check_auth(value: str, name: str = "header.auth") -> str:
+    """A signature is empty or :data:`AUTH_HEX` lower-case hex digits."""
+    if value and _HEX.fullmatch(value) is None:
+        raise ProtoError(f"{name}: expected empty or {AUTH_HEX} lower-case hex digits")
+    return value
 
 
 def check_run_id(value: str, what: str = "run id") -> str:
@@ -35,6 +48,7 @@ _SPECS = {
     "publish_time_ns": Int(),
     "run_id": Str(validate=check_run_id),
     "media_time_ns": Int(),
+    "auth": Str(max_len=AUTH_HEX, validate=check_auth),
 }
 WIRE_KEYS = ("schema_version", "kind", *_SPECS)
 """Keys of the wire header, in their order."""
@@ -69,6 +83,10 @@ class Header:
         time less the first frame's. Smoothing over time and exported
         timestamps read it, so that a file gives the same results run fast or
         in real time.
+    auth : str
+        The run's signature of a ``frame`` or ``eos`` (:mod:`proto.auth`), so that
+        only the run's own source can number frames and end the stream; empty
+        otherwise.
     """
 
     stream_id: str
@@ -78,6 +96,7 @@ class Header:
     publish_time_ns: int
     run_id: str = ""
     media_time_ns: int = 0
+    auth: str = ""
 
     def __post_init__(self) -> None:
         for f in fields(self):

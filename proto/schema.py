@@ -35,7 +35,7 @@ from proto.arrays import ArraySpec
 from proto.codec import payload_limit
 from proto.fields import Str, StrList
 from proto.header import _SPECS as HEADER_SPECS
-from proto.header import SCHEMA_VERSION, WIRE_KEYS, Header, check_run_id
+from proto.header import AUTH_HEX, SCHEMA_VERSION, WIRE_KEYS, Header, check_auth, check_run_id
 from proto.images import JPEG_MAGIC, ImageSpec
 from proto.json_form import dumps
 from proto.keys import NAME_MAX_LEN, check_name
@@ -51,7 +51,8 @@ NAME_PATTERN = f"^{_NAME_CORE}$"
 """A stream id or service name (:func:`proto.keys.check_name`)."""
 RUN_ID_PATTERN = f"^(|{_NAME_CORE})$"
 """A run id: empty or a name (:func:`proto.header.check_run_id`)."""
-PATTERNS = {check_name: NAME_PATTERN, check_run_id: RUN_ID_PATTERN}
+PATTERNS = {check_name: NAME_PATTERN, check_run_id: RUN_ID_PATTERN,
+            check_auth: f"^([0-9a-f]{{{AUTH_HEX}}})?$"}
 """The ``pattern`` of each ``Str.validate`` rule of the contract."""
 JPEG_BASE64_PATTERN = (
     "^" + base64.b64encode(JPEG_MAGIC).decode() + "([A-Za-z0-9+/]{4})*"

@@ -26,7 +26,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from proto import Message, ProtoError, decode
-from proto.keys import owner_of
+from proto.auth import SIGNED, is_signed
+from proto.keys import owner_of, topic_key
 from services.bus.stats import FrameNumbering, ServiceStats
 
 
@@ -63,15 +64,21 @@ class Screen:
     stats : ServiceStats
     reject : callable
         ``reject(source, reason)``: counts and logs a rejected sample.
+    run_key : bytes
+        The run's key: frames and ends of stream on the stream's own topics must carry
+        its signature (:mod:`proto.auth`); empty: nothing is checked.
     """
 
     def __init__(
-        self, stream: str, run_id: str, stats: ServiceStats, reject: Callable[[str, str], None]
+        self, stream: str, run_id: str, stats: ServiceStats, reject: Callable[[str, str], None],
+        run_key: bytes = b"",
     ) -> None:
         self.stream = stream
         self.run_id = run_id
         self.stats = stats
         self.reject = reject
+        self.run_key = run_key
+        self._signed_keys = {topic_key(stream, kind) for kind in SIGNED}
 
     def check(self, payload: bytes, key: str, kind: str | None) -> Message | None:
         """The message of a valid sample of this run, else None (counted)."""
@@ -90,6 +97,9 @@ class Screen:
             return None
         if self.run_id and header.run_id != self.run_id:
             self.stats.ignored += 1
+            return None
+        if self.run_key and key in self._signed_keys and not is_signed(self.run_key, message):
+            self.stats.ignored += 1  # not from the run's own source
             return None
         return message
 

@@ -24,6 +24,7 @@ from collections.abc import Callable
 from typing import Any
 
 from proto import Header, Message, Status, encode
+from proto.auth import ENV_KEY, SIGNED, signed
 from proto.keys import alive_key, check_name, topic_key
 from proto.messages import STATES
 from services.bus.connection import BusOptions
@@ -56,6 +57,10 @@ class Service(Receiving, Presence):
     announce : bool
         Publish a status; False for tools beside the stack (``echo``,
         ``record``), which must not show up among its services.
+    run_key : bytes, optional
+        The run's secret key (:mod:`proto.auth`): frames and ends of stream this service
+        publishes are signed with it, and those it receives must be. By default from the
+        environment (``AAMTRACK_RUN_KEY``, where the launcher puts it); none there, none.
 
     Notes
     -----
@@ -66,7 +71,8 @@ class Service(Receiving, Presence):
     """
 
     def __init__(self, name: str, bus: BusOptions, status_period: float = STATUS_PERIOD,
-                 handle_signals: bool = True, announce: bool = True) -> None:
+                 handle_signals: bool = True, announce: bool = True,
+                 run_key: bytes | None = None) -> None:
         self.name = check_name(name, "service")
         self.bus = bus
         self.stream = bus.stream
@@ -75,7 +81,8 @@ class Service(Receiving, Presence):
         self.log = logging.getLogger(f"aamtrack.{name}")
         self.restarts = int(os.environ.get(ENV_RESTARTS, "0") or 0)
         self.session: Any = None
-        self.screen = Screen(self.stream, self.run_id, self.stats, self.reject)
+        self.run_key = run_key if run_key is not None else _key_from_environment()
+        self.screen = Screen(self.stream, self.run_id, self.stats, self.reject, self.run_key)
         self.stop_hooks: list[Callable[[], None]] = []
         """Called (in the stopping thread) when the service is asked to stop."""
         self._status_period = status_period
@@ -204,7 +211,10 @@ class Service(Receiving, Presence):
         return self.header(h.frame_index, h.capture_time_ns, h.run_id, h.media_time_ns)
 
     def publish(self, message: Message, count: bool = True) -> None:
-        """Encode ``message`` and put it on its key with its topic's QoS."""
+        """Encode ``message`` (signed, when it is a kind the run signs and there is a key)
+        and put it on its key with its topic's QoS."""
+        if self.run_key and message.KIND in SIGNED:
+            message = signed(self.run_key, message)
         self.put(message.key(), encode(message), TOPIC_QOS.get(message.KIND, QoS()))
         if count:
             self.stats.frames_out += 1
@@ -264,6 +274,15 @@ class Service(Receiving, Presence):
                 self.put(status.key(), encode(status), TOPIC_QOS["status"])
             except Exception as exc:  # keep the thread alive; the next period retries
                 self.log.debug("status not published: %s", exc)
+
+
+def _key_from_environment() -> bytes:
+    """The run key the launcher put in the environment (empty bytes: none, or not hex)."""
+    try:
+        return bytes.fromhex(os.environ.get(ENV_KEY, ""))
+    except ValueError:
+        _log.warning("%s is not hex: frames and ends of stream go unsigned", ENV_KEY)
+        return b""
 
 
 def _undeclare(item: Any) -> None:

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import json
 import logging
+import secrets
 import socket
 import sys
 import uuid
@@ -37,6 +38,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from proto.auth import ENV_KEY
 from services.bus.args import service_argv
 from services.bus.connection import BusOptions
 from services.bus.options import OptionError
@@ -203,9 +205,12 @@ class Stack:
     def __init__(self, opts: StackOptions) -> None:
         self.opts = opts
         stream = opts.launch.stream
+        self.run_key = b""
+        """The run's secret key (:mod:`proto.auth`); none across several hosts."""
         if opts.bus is None:
             self.endpoint = opts.launch.endpoint or default_endpoint()
             self.run_id = f"run-{uuid.uuid4().hex[:12]}"
+            self.run_key = secrets.token_bytes(16)
             service_bus = BusOptions(stream, "peer", listen=("tcp/127.0.0.1:0",),
                                      connect=(self.endpoint,), run_id=self.run_id)
             own_bus = BusOptions(stream, "peer", listen=(self.endpoint,), run_id=self.run_id)
@@ -214,9 +219,9 @@ class Stack:
             self.run_id = opts.bus.run_id
             service_bus = own_bus = opts.bus
         self.specs = service_specs(opts, service_bus)
-        self.supervisor = Supervisor(self.specs, env=SERVICE_ENV)
+        self.supervisor = Supervisor(self.specs, env=SERVICE_ENV | {ENV_KEY: self.run_key.hex()})
         self.recorder = RecordWriter(opts.launch.record) if opts.launch.record else None
-        self.service = Service(NAME, own_bus)
+        self.service = Service(NAME, own_bus, run_key=self.run_key)
         self.monitor = StackMonitor(self.service, self.recorder, opts.launch.record_images,
                                     EndOfRun(opts.launch.drain_quiet, opts.launch.drain_max))
         self.exit_codes: dict[str, int | None] = {}
