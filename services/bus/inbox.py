@@ -67,17 +67,20 @@ class Screen:
     run_key : bytes
         The run's key: frames and ends of stream on the stream's own topics must carry
         its signature (:mod:`proto.auth`); empty: nothing is checked.
+    restarted : bool
+        The service's process is a restart: frames are numbered from the first it sees.
     """
 
     def __init__(
         self, stream: str, run_id: str, stats: ServiceStats, reject: Callable[[str, str], None],
-        run_key: bytes = b"",
+        run_key: bytes = b"", restarted: bool = False,
     ) -> None:
         self.stream = stream
         self.run_id = run_id
         self.stats = stats
         self.reject = reject
         self.run_key = run_key
+        self.restarted = restarted
         self._signed_keys = {topic_key(stream, kind) for kind in SIGNED}
 
     def check(self, payload: bytes, key: str, kind: str | None) -> Message | None:
@@ -115,7 +118,8 @@ class _Holder:
         self.arrived: threading.Event | None = None
         """Set on every arrival, when given (a loop over several holders waits on it)."""
         self._screen = screen
-        self._numbering = FrameNumbering(screen.stats) if count_lost else None
+        self._numbering = (FrameNumbering(screen.stats, screen.restarted) if count_lost
+                           else None)
         self._cond = threading.Condition()
         self._woken = False
 

@@ -82,7 +82,8 @@ class Service(Receiving, Presence):
         self.restarts = int(os.environ.get(ENV_RESTARTS, "0") or 0)
         self.session: Any = None
         self.run_key = run_key if run_key is not None else _key_from_environment()
-        self.screen = Screen(self.stream, self.run_id, self.stats, self.reject, self.run_key)
+        self.screen = Screen(self.stream, self.run_id, self.stats, self.reject, self.run_key,
+                             self.restarts > 0)
         self.stop_hooks: list[Callable[[], None]] = []
         """Called (in the stopping thread) when the service is asked to stop."""
         self._status_period = status_period

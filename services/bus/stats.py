@@ -66,10 +66,16 @@ class ServiceStats:
 
 
 class FrameNumbering:
-    """Counts the frames of each run that never arrived, from gaps in their indices."""
+    """Counts the frames of each run that never arrived, from gaps in their indices.
 
-    def __init__(self, stats: ServiceStats) -> None:
+    A restarted process (``from_first``) counts from the first frame it sees: the frames
+    before it went to its predecessor, or to nobody, which the launcher tells from the
+    fits it got.
+    """
+
+    def __init__(self, stats: ServiceStats, from_first: bool = False) -> None:
         self._stats = stats
+        self._from_first = from_first
         self._run: str | None = None
         self._next = 0
         self._lock = threading.Lock()
@@ -78,7 +84,8 @@ class FrameNumbering:
         """Note the arrival of a frame (any order; a new run starts counting afresh)."""
         with self._lock:
             if header.run_id != self._run:
-                self._run, self._next = header.run_id, 0
+                first = self._from_first and self._run is None
+                self._run, self._next = header.run_id, header.frame_index if first else 0
             index = header.frame_index
             if index > self._next:
                 self._stats.lost += index - self._next

@@ -9,7 +9,7 @@ fit with landmarks gets a pose; when the fit itself failed, or the estimator
 does not trust its answer (a face in profile, landmarks outside the frame or
 that no head explains), the pose is published with ``reliable = False`` and
 the reason. Fits without landmarks (no face) get none, nor do landmarks the
-estimator refuses (PoseError); the status line counts each reason.
+estimator refuses (PoseError: counted as dropped); the status line counts each reason.
 """
 
 from __future__ import annotations
@@ -82,7 +82,7 @@ def answer(svc: Service, fit: Fit, poses: HeadPoseTracker, counts: PoseCounts) -
         pose = pose_message(svc, fit, poses)
     except (PoseError, IntrinsicsError, ProtoError) as exc:
         counts.no_pose[reason_key(str(exc))] += 1
-        svc.reject("fit", f"no pose: {exc}")
+        svc.stats.dropped += 1  # no pose can be had from these landmarks: none is owed
         return
     svc.publish(pose)
     if not pose.reliable:

@@ -20,6 +20,8 @@ from services.stack.recorder import IMAGE_KINDS, RESULT_KINDS, RecordWriter
 from services.stack.registry import SERVICES
 
 RESULTS = ("fit", "pose", "expression")
+COUNTS = ("frames_in", "frames_out", "dropped", "rejected", "lost", "ignored", "failed")
+"""The status counts a summary adds up over a service's processes."""
 
 
 class StackMonitor:
@@ -34,6 +36,10 @@ class StackMonitor:
         self.fits_failed = 0
         self.fits_no_face = 0
         self.statuses: dict[str, Status] = {}
+        self.incarnations: dict[tuple[str, int], Status] = {}
+        """The last status of each process a service has had (by its restart count)."""
+        self.with_face: set[int] = set()
+        """Frames whose fit has landmarks: each is owed a pose."""
         self.foreign: dict[str, set[str]] = {}
         """Run id -> stack services of another run seen on the bus (from their statuses)."""
         self.eos: EndOfStream | None = None
@@ -76,14 +82,18 @@ class StackMonitor:
         self.end.saw(msg)
         if msg.KIND in self.indices:
             self.indices[msg.KIND].add(msg.header.frame_index)
-        if msg.KIND == "fit" and msg.failed:
-            self.fits_failed += 1
-            self.fits_no_face += len(msg.landmarks) == 0
+        if msg.KIND == "fit":
+            if len(msg.landmarks):
+                self.with_face.add(msg.header.frame_index)
+            if msg.failed:
+                self.fits_failed += 1
+                self.fits_no_face += len(msg.landmarks) == 0
         elif msg.KIND == "pose":
             h = msg.header
             self.pose_latency_ms.append((h.publish_time_ns - h.capture_time_ns) / 1e6)
         elif msg.KIND == "status":
             self.statuses[msg.service] = msg
+            self.incarnations[(msg.service, msg.restarts)] = msg
         elif msg.KIND == "eos":
             self.eos = msg
 
@@ -102,8 +112,8 @@ class StackMonitor:
         """Counts, end of stream, each service's last status and the frames lost, as plain data."""
         with self._lock:
             total = None if self.eos is None else self.eos.total_frames
-            services = {n: _status_dict(s) for n, s in sorted(self.statuses.items())
-                        if n != exclude}
+            services = {n: self._service_dict(n) for n in sorted(self.statuses) if n != exclude}
+            unanswered = self._unanswered(services, total)
             return {
                 "total_frames": total,
                 "eos_reason": None if self.eos is None else self.eos.reason,
@@ -113,17 +123,33 @@ class StackMonitor:
                 "fits_no_face": self.fits_no_face,
                 "pose_latency_ms": _percentiles(sorted(self.pose_latency_ms)),
                 "services": services,
-                "frames_lost": frames_lost(services.get("fitter"), total),
+                "unanswered": unanswered,
+                "frames_lost": unanswered["fit"],
                 "foreign_runs": {run: sorted(names) for run, names in self.foreign.items()},
             }
 
 
-def frames_lost(fitter: dict[str, Any] | None, total: int | None) -> int:
-    """Frames of the run the fitter never saw: neither taken, dropped by design nor rejected."""
-    if fitter is None or total is None:
-        return 0
-    seen = fitter["frames_in"] + fitter["dropped"] + fitter["rejected"]
-    return max(fitter["lost"], total - seen)
+    def _service_dict(self, name: str) -> dict[str, Any]:
+        """A service's last status, its counts summed over every process it has had (a
+        restarted service counts from zero again)."""
+        out = _status_dict(self.statuses[name])
+        mine = [s for (n, _), s in self.incarnations.items() if n == name]
+        for count in COUNTS:
+            out[count] = sum(getattr(s, count) for s in mine)
+        return out
+
+    def _unanswered(self, services: dict[str, Any], total: int | None) -> dict[str, int]:
+        """Frames of the run without a fit, and fits with landmarks without a pose, that no
+        service dropped by design (rejected, lost on the way, failed, or never taken)."""
+        def owed(expected: int, answered: int, service: str) -> int:
+            dropped = services.get(service, {}).get("dropped", 0)
+            return max(0, expected - answered - dropped)
+
+        fits = owed(total, len(self.indices["fit"]), "fitter") if total is not None else 0
+        poses = 0
+        if "pose" in services:
+            poses = owed(len(self.with_face), len(self.indices["pose"] & self.with_face), "pose")
+        return {"fit": fits, "pose": poses}
 
 
 def _percentiles(values: list[float]) -> dict[str, float | None]:
@@ -155,15 +181,17 @@ def summary_table(summary: dict[str, Any]) -> str:
              f"{summary['frames_with']['pose']}, expression "
              f"{summary['frames_with']['expression']}; failed fits {summary['fits_failed']} "
              f"(no face {summary['fits_no_face']}); overlays {summary['messages']['overlay']}; "
-             f"frames lost {summary['frames_lost']}",
+             f"unanswered: {summary['unanswered']['fit']} frames without a fit, "
+             f"{summary['unanswered']['pose']} fits with a face without a pose",
              f"{'service':<12} {'state':<9} {'in':>6} {'out':>6} {'dropped':>7} {'rejected':>8} "
-             f"{'lost':>5} {'ignored':>7} {'p50 ms':>7} {'p99 ms':>7} {'restarts':>8}"]
+             f"{'lost':>5} {'ignored':>7} {'failed':>6} {'p50 ms':>7} {'p99 ms':>7} "
+             f"{'restarts':>8}"]
     for name, s in summary["services"].items():
         p50 = "-" if s["latency_p50_ms"] is None else f"{s['latency_p50_ms']:.1f}"
         p99 = "-" if s["latency_p99_ms"] is None else f"{s['latency_p99_ms']:.1f}"
         lines.append(f"{name:<12} {s['state']:<9} {s['frames_in']:>6} {s['frames_out']:>6} "
                      f"{s['dropped']:>7} {s['rejected']:>8} {s['lost']:>5} {s['ignored']:>7} "
-                     f"{p50:>7} {p99:>7} {s['restarts']:>8}")
+                     f"{s['failed']:>6} {p50:>7} {p99:>7} {s['restarts']:>8}")
     for run, names in summary.get("foreign_runs", {}).items():
         lines.append(f"ignored: services of another run {run!r} on this bus: {', '.join(names)}")
     return "\n".join(lines)

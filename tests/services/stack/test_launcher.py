@@ -29,7 +29,14 @@ from proto import EndOfStream, Fit, Frame, Header, encode
 from services.bus.connection import BusOptions
 from services.bus.qos import MUST_ARRIVE
 from services.bus.session import Service
-from services.stack.launcher import EXIT_FAILED, Stack, exit_code, free_port, prepare_models
+from services.stack.launcher import (
+    EXIT_FAILED,
+    Stack,
+    exit_code,
+    free_port,
+    prepare_models,
+    unanswered_problem,
+)
 from services.stack.options import StackOptions
 from services.stack.recorder import load_messages, read_recording
 from tests.expectations import FRAMES, GOOD_SHARE, check_poses
@@ -277,7 +284,9 @@ def test_a_foreign_end_of_stream_does_not_end_the_run(
             intruder.put(intruder.key("eos"), encode(eos), MUST_ARRIVE)
         assert stack.wait() == "done"
     summary = stack.summary()
-    assert summary["total_frames"] == 144 and summary["frames_with"]["fit"] == 144
+    assert summary["total_frames"] == 144 and summary["eos_reason"] == "end_of_file"
+    assert 143 in stack.monitor.indices["fit"]  # the run went on to its real end
+    assert summary["unanswered"]["fit"] == 0  # real time: frames dropped by design at most
 
 
 def test_killing_a_service_leaves_the_others_running_and_it_comes_back(
@@ -297,6 +306,11 @@ def test_killing_a_service_leaves_the_others_running_and_it_comes_back(
     poses = stack.monitor.indices["pose"]
     assert max(poses) > killed_at + 30, "no poses after the restart"
     assert_accounted(summary)
+    # The fits that came while no pose service ran got no pose: the run says so and fails.
+    assert summary["unanswered"]["pose"] > 0 and summary["unanswered"]["fit"] == 0
+    assert "fits with a face got no pose" in unanswered_problem(summary)
+    assert "pose restarted 1 times" in unanswered_problem(summary)
+    assert exit_code("done", summary) == EXIT_FAILED
     for name in ("detector", "fitter", "expression", "source"):
         assert summary["services"][name]["restarts"] == 0
 
