@@ -4,9 +4,10 @@
 - ``aamtrack record --out FILE``: write every result message of a stream to a
   file (:mod:`services.stack.recorder`).
 
-Both connect to ``tcp/127.0.0.1:7447`` (where ``aamtrack run`` listens by
-default) unless told otherwise, publish nothing on the stack's stream, and
-give up with exit status 1 when no stack answers within ``--timeout`` seconds.
+Both connect to the stream's socket in the user's private folder (where
+``aamtrack run`` listens by default, :mod:`services.bus.runtime`) unless told
+otherwise, publish nothing on the stack's stream, and give up with exit status 1
+when no stack answers within ``--timeout`` seconds.
 """
 
 from __future__ import annotations
@@ -68,15 +69,15 @@ def _common(p: argparse.ArgumentParser) -> None:
 def _client(args: argparse.Namespace) -> Service | None:
     """The session of ``echo`` or ``record`` (not announced on the stack's stream): by
     default it connects where ``run`` listens; None, with a message, for bad options."""
-    from services.stack.launcher import DEFAULT_ENDPOINT
+    from services.bus.runtime import stream_endpoint
 
     try:
         bus = options_from(BusOptions, args)
+        if not bus.listen and not bus.connect:
+            bus = bus.replace(connect=(stream_endpoint(bus.stream),))
     except OptionError as exc:
         print(f"aamtrack {args.command}: error: {exc}", file=sys.stderr)
         return None
-    if not bus.listen and not bus.connect:
-        bus = bus.replace(connect=(DEFAULT_ENDPOINT,))
     init_process(args.command, args.verbose)
     return Service(args.command, bus, announce=False)
 

@@ -41,7 +41,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """``aamtrack run``."""
-    from services.stack.launcher import EXIT_INPUT, run_stack
+    from services.stack.launcher import run_stack
+    from services.stack.outcome import EXIT_INPUT
 
     try:
         if args.host and not args.stack:

@@ -5,13 +5,17 @@ The launcher
 1. checks everything it can before any process starts (:mod:`services.stack.preflight`)
    and trains (or finds in the cache) the models the services need, so that
    no service trains while the video plays;
-2. opens its own Zenoh session in peer mode listening on the endpoint
-   (``tcp/127.0.0.1:7447`` when free, else a free loopback port); every
-   service connects to it and listens on a port of its own, and Zenoh's
-   gossip joins them into a mesh (no router, multicast scouting off);
-3. gives the run a run id: every service accepts only messages of it, so
-   processes of another run on the same bus change nothing (they are
-   counted and named in the summary);
+2. opens its own Zenoh session in peer mode listening on the endpoint: by
+   default a Unix socket in the user's private folder (``<stream>.sock``, or
+   one of the run's own while another run holds it; :mod:`services.bus.runtime`),
+   so that no other user can reach the run; every service connects to it and
+   listens on a socket (with ``--endpoint tcp/...``, a loopback port) of its
+   own, and Zenoh's gossip joins them into a mesh (no router, multicast
+   scouting off);
+3. gives the run a run id and a secret key (:mod:`proto.auth`): every service
+   accepts only messages of the run, and frames and the end of stream only
+   from its own source, so processes of another run or another program on the
+   same bus change nothing (they are counted and named in the summary);
 4. starts each service as its own process (a fresh interpreter in a process group of its own, see
    :mod:`services.stack.supervisor`; each dies with the launcher), the
    source last, once the others hold their liveliness tokens;
@@ -42,18 +46,25 @@ from proto.auth import ENV_KEY
 from services.bus.args import service_argv
 from services.bus.connection import BusOptions
 from services.bus.options import OptionError
+from services.bus.runtime import (
+    in_use,
+    remove_socket,
+    runtime_dir,
+    socket_endpoint,
+    socket_path,
+)
 from services.bus.session import Service
 from services.stack import preflight
 from services.stack.drain import EndOfRun
 from services.stack.monitor import StackMonitor, summary_table
 from services.stack.options import StackOptions
+from services.stack.outcome import EXIT_INPUT, exit_code
 from services.stack.recorder import RecordWriter
 from services.stack.registry import SERVICES
 from services.stack.supervisor import ServiceSpec, Supervisor
 
 log = logging.getLogger("aamtrack.launcher")
 NAME = "launcher"
-EXIT_OK, EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 FINAL_STATUS_WAIT = 2.0
 """Seconds to wait, once the processes are gone, for their last status messages."""
 SETTLE = 0.3
@@ -62,21 +73,23 @@ BEST_EFFORT = {"ar": 5, "rerun": 5}
 """Niceness of the stages off the capture-to-pose path: they yield the CPU to it."""
 SERVICE_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 """One compute thread per service process: many processes share few cores."""
-DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
-"""Where the launcher listens when that port is free (``echo`` and ``record`` connect there)."""
 
 
-def default_endpoint() -> str:
-    """:data:`DEFAULT_ENDPOINT` if its port is free, else a free loopback port."""
-    port = int(DEFAULT_ENDPOINT.rsplit(":", 1)[1])
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        # Connections of an earlier run in TIME_WAIT do not make the port busy.
-        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            s.bind(("127.0.0.1", port))
-        except OSError:
-            return f"tcp/127.0.0.1:{free_port()}"
-    return DEFAULT_ENDPOINT
+def default_endpoint(stream: str, run_id: str) -> str:
+    """The stream's Unix socket in the user's private folder (:mod:`services.bus.runtime`),
+    or one of the run's own there while another run holds the stream's."""
+    folder = runtime_dir()
+    path = folder / f"{stream}.sock"
+    return socket_endpoint(path if not in_use(path) else folder / f"{stream}-{run_id}.sock")
+
+
+def service_listen(endpoint: str, run_id: str, name: str) -> str:
+    """Where service ``name`` listens: a Unix socket of its own beside a launcher on one, else
+    a free loopback port."""
+    path = socket_path(endpoint)
+    if path is None:
+        return "tcp/127.0.0.1:0"
+    return socket_endpoint(path.parent / f"{run_id}-{name}.sock")
 
 
 def free_port() -> int:
@@ -136,7 +149,8 @@ def _reads_appearance(classifier: str) -> bool:
 
 
 def service_specs(opts: StackOptions, bus: BusOptions) -> list[ServiceSpec]:
-    """The processes of the stack, the source last (waiting for the others)."""
+    """The processes of the stack, the source last (waiting for the others). On one host
+    each listens where :func:`service_listen` says; across hosts, as ``bus`` says."""
     names = [n for n in opts.services if n != "source"]
     specs = []
     for name in [*names, "source"] if "source" in opts.services else names:
@@ -144,7 +158,9 @@ def service_specs(opts: StackOptions, bus: BusOptions) -> list[ServiceSpec]:
         if name == "source":
             wait_for = opts.wait_for if opts.wait_for is not None else tuple(names)
             options = options.replace(wait_for=wait_for, wait_timeout=opts.launch.start_timeout)
-        argv = service_argv(bus, options, opts.verbose) + opts.extra.get(name, [])
+        own = bus if opts.bus is not None else bus.replace(
+            listen=(service_listen(bus.connect[0], bus.run_id, name),))
+        argv = service_argv(own, options, opts.verbose) + opts.extra.get(name, [])
         specs.append(ServiceSpec(name, SERVICES[name].module, argv,
                                  restart=opts.launch.restart and name != "source",
                                  nice=BEST_EFFORT.get(name, 0)))
@@ -208,11 +224,14 @@ class Stack:
         self.run_key = b""
         """The run's secret key (:mod:`proto.auth`); none across several hosts."""
         if opts.bus is None:
-            self.endpoint = opts.launch.endpoint or default_endpoint()
             self.run_id = f"run-{uuid.uuid4().hex[:12]}"
+            try:
+                self.endpoint = opts.launch.endpoint or default_endpoint(stream, self.run_id)
+            except OptionError as exc:
+                raise preflight.PreflightError(str(exc)) from None
             self.run_key = secrets.token_bytes(16)
-            service_bus = BusOptions(stream, "peer", listen=("tcp/127.0.0.1:0",),
-                                     connect=(self.endpoint,), run_id=self.run_id)
+            service_bus = BusOptions(stream, "peer", connect=(self.endpoint,),
+                                     run_id=self.run_id)
             own_bus = BusOptions(stream, "peer", listen=(self.endpoint,), run_id=self.run_id)
         else:  # one host of several: everything joins the stack's router
             self.endpoint = ", ".join(opts.bus.connect)
@@ -271,6 +290,10 @@ class Stack:
             self.service.close()
             if self.recorder is not None:
                 self.recorder.close()
+            if self.opts.bus is None:
+                for name in [s.name for s in self.specs]:
+                    remove_socket(service_listen(self.endpoint, self.run_id, name))
+                remove_socket(self.endpoint)
 
     def summary(self) -> dict[str, Any]:
         """The run's summary: the monitor's counts, outcome, exit codes and events."""
@@ -288,7 +311,9 @@ def prepared(opts: StackOptions) -> StackOptions:
     """
     if opts.launch.endpoint:
         preflight.check_endpoint(opts.launch.endpoint, explicit=True)
-    bus = BusOptions(opts.launch.stream, "peer", connect=(DEFAULT_ENDPOINT,), run_id="run-check")
+    # Only the services' own options are checked with it: any endpoint of the right form does.
+    bus = BusOptions(opts.launch.stream, "peer", connect=("tcp/127.0.0.1:7447",),
+                     run_id="run-check")
     preflight.check_service_args(opts, bus)
     preflight.check_viewer(opts)
     preflight.check_outputs(opts)
@@ -337,40 +362,3 @@ def unwritten(opts: StackOptions) -> list[str]:
     rerun = opts.services.get("rerun")
     asked = [opts.launch.record, rerun.rrd if rerun is not None else None]
     return [p for p in asked if p and not Path(p).exists()]
-
-
-def unanswered_problem(summary: dict[str, Any]) -> str:
-    """What went unanswered in a run that reached its end ("" when nothing did)."""
-    owed = summary.get("unanswered", {})
-    services = summary.get("services", {})
-    parts = []
-    for stage, service, what in (("fit", "fitter", "frames got no fit"),
-                                 ("pose", "pose", "fits with a face got no pose")):
-        if owed.get(stage, 0):
-            s = services.get(service, {})
-            why = ", ".join(f"{s[k]} {k}" for k in ("rejected", "lost", "failed") if s.get(k))
-            restarts = f", {service} restarted {s['restarts']} times" if s.get("restarts") else ""
-            parts.append(f"{owed[stage]} {what} ({why or 'never taken'}{restarts})")
-    return "; ".join(parts)
-
-
-def exit_code(outcome: str, summary: dict[str, Any]) -> int:
-    """0 for a run that reached its end with every frame answered or dropped by design,
-    else the reason's code, with a message."""
-    reason = summary.get("eos_reason") or ""
-    if outcome == "done" and not reason.startswith("error"):
-        problem = unanswered_problem(summary)
-        if problem:
-            print(f"aamtrack run: error: {problem}", file=sys.stderr)
-            return EXIT_FAILED
-        return EXIT_OK
-    if outcome == "stopped":
-        print("aamtrack run: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    if outcome.startswith("taken"):
-        print(f"aamtrack run: error: {outcome.removeprefix('taken: ')}: stop them first",
-              file=sys.stderr)
-        return EXIT_INPUT
-    why = reason.removeprefix("error: ") if reason.startswith("error") else outcome
-    print(f"aamtrack run: error: {why}", file=sys.stderr)
-    return EXIT_FAILED

@@ -52,8 +52,10 @@ class LaunchOptions(Options):
 
     stream: str = option("cam0", "stream id")
     endpoint: str | None = option(None, "zenoh endpoint the stack listens on, for other "
-                                  "programs to connect to (default tcp/127.0.0.1:7447 if free, "
-                                  "else a free loopback port)", metavar="ENDPOINT")
+                                  "programs to connect to (default: a Unix socket only this "
+                                  "user can open, <private folder>/<stream>.sock; "
+                                  "tcp/HOST:PORT opens the run to every local process)",
+                                  metavar="ENDPOINT")
     ar: bool = option(True, "start the glasses renderer")
     record: str | None = option(None, "record every result message to FILE", metavar="FILE")
     record_images: bool = option(False, "with --record: frames and overlays too")

@@ -142,11 +142,22 @@ def _check_classifier(expression: Any) -> None:
 
 
 def check_endpoint(endpoint: str, explicit: bool) -> None:
-    """An endpoint the launcher can listen on: ``tcp/HOST:PORT`` with the port free."""
+    """An endpoint the launcher can listen on: ``tcp/HOST:PORT`` with the port free, or
+    ``unixsock-stream/PATH`` in an existing folder with nobody on it."""
+    from services.bus.runtime import in_use, socket_path
+
+    path = socket_path(endpoint)
+    if path is not None:
+        if not path.parent.is_dir():
+            raise PreflightError(f"--endpoint {endpoint}: the folder {path.parent} does not "
+                                 "exist")
+        if in_use(path):
+            raise PreflightError(f"--endpoint {endpoint}: in use (another run of the stack?)")
+        return
     match = ENDPOINT.fullmatch(endpoint)
     if match is None:
         raise PreflightError(f"--endpoint {endpoint!r}: expected tcp/HOST:PORT, e.g. "
-                             "tcp/127.0.0.1:7447")
+                             "tcp/127.0.0.1:7447, or unixsock-stream/PATH")
     host, port = match["host"].strip("[]"), int(match["port"])
     if not 1 <= port <= 65535:
         raise PreflightError(f"--endpoint {endpoint}: port {port} is outside 1 to 65535")

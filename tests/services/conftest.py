@@ -43,12 +43,13 @@ def _run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[st
 @pytest.fixture(scope="session")
 def stack_options(model_path: Path, classifier_path: Path) -> Callable[..., StackOptions]:
     """``stack_options(video, **options)``: a stack on ``video``, fast pacing, the small model
-    and its classifier, a free endpoint; options by field name, as ``aamtrack run`` takes them."""
+    and its classifier, the default endpoint (the stream's Unix socket, or one of the run's
+    own while another stack holds it); options by field name, as ``aamtrack run`` takes
+    them."""
 
     def make(video: Path, **kw: object) -> StackOptions:
         kw.setdefault("pace", "fast")
         kw.setdefault("drain_max", 10.0)
-        kw.setdefault("endpoint", f"tcp/127.0.0.1:{free_port()}")
         kw.setdefault("model", str(model_path))
         kw.setdefault("classifier", str(classifier_path))
         return parse_run_args(run_argv(video, **kw))

@@ -29,15 +29,9 @@ from proto import EndOfStream, Fit, Frame, Header, encode
 from services.bus.connection import BusOptions
 from services.bus.qos import MUST_ARRIVE
 from services.bus.session import Service
-from services.stack.launcher import (
-    EXIT_FAILED,
-    Stack,
-    exit_code,
-    free_port,
-    prepare_models,
-    unanswered_problem,
-)
+from services.stack.launcher import Stack, free_port, prepare_models
 from services.stack.options import StackOptions
+from services.stack.outcome import EXIT_FAILED, exit_code, unanswered_problem
 from services.stack.recorder import load_messages, read_recording
 from tests.expectations import FRAMES, GOOD_SHARE, check_poses
 
@@ -423,7 +417,8 @@ def test_frames_lost_to_a_stopped_consumer_are_counted_and_fail_the_run(
     assert fitter["frames_in"] + fitter["dropped"] + summary["frames_lost"] >= total, fitter
     assert fitter["dropped"] + summary["frames_lost"] > 0, fitter
     # A run with frames lost to a fault fails; one that only dropped frames by design does not.
-    assert (exit_code("done", summary) == EXIT_FAILED) == (summary["frames_lost"] > 0)
+    owed = summary["unanswered"]["fit"] + summary["unanswered"]["pose"]
+    assert (exit_code("done", summary) == EXIT_FAILED) == (owed > 0)
 
 
 def test_ctrl_c_before_the_stack_starts_names_the_recordings_never_started(
