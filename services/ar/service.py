@@ -29,6 +29,8 @@ from services.bus.session import Service
 
 NAME = "ar"
 FRAMES_KEPT = 8
+FRAME_WAIT_S = 0.05
+"""Longest wait for the frame of a pose that came before it."""
 
 
 def bgr_image(frame: Frame) -> np.ndarray:
@@ -89,7 +91,7 @@ def draw(svc: Service, compositor: Compositor, pose: HeadPose, frame: Frame, jpe
 def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
     """Render overlays until stopped."""
     frames = svc.recent("frame", FRAMES_KEPT)
-    unreliable = 0
+    unreliable = without_frame = 0
     poses = svc.messages("pose", capacity=opts.capacity)
     svc.ready(f"renderer {compositor.ctx.info.get('GL_RENDERER', '?')}")
     for got in poses:
@@ -97,17 +99,19 @@ def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
         assert isinstance(pose, HeadPose)
         if not (pose.reliable or opts.all_poses):
             unreliable += 1
-            svc.set_state("running", f"{unreliable} unreliable poses not drawn")
-            continue
-        frame = frames.take(pose.header.run_id, pose.header.frame_index)
-        if frame is None:
-            svc.stats.dropped += 1  # its frame is gone: never received or pushed out
-            continue
-        with svc.answering(f"pose {pose.header.frame_index}"):
-            try:
-                svc.publish(draw(svc, compositor, pose, frame.message, opts.jpeg))
-            except (ProtoError, ValueError) as exc:
-                svc.reject("pose", f"no overlay: {exc}")
+        # The frame and its pose come from different publishers: the pose may come first.
+        elif (frame := frames.take(pose.header.run_id, pose.header.frame_index,
+                                   FRAME_WAIT_S)) is None:
+            without_frame += 1  # its frame is gone: never received, or pushed out
+        else:
+            with svc.answering(f"pose {pose.header.frame_index}"):
+                try:
+                    svc.publish(draw(svc, compositor, pose, frame.message, opts.jpeg))
+                except (ProtoError, ValueError) as exc:
+                    svc.reject("pose", f"no overlay: {exc}")
+        svc.set_state("running", f"{svc.stats.frames_out} overlays drawn; not drawn: "
+                      f"{unreliable} unreliable poses, {without_frame} poses whose frame was "
+                      f"gone, {svc.stats.dropped} poses or frames skipped while busy")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

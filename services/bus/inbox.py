@@ -223,17 +223,31 @@ class Latest(_Holder):
 
 
 class Recent(_Holder):
-    """The last ``size`` screened messages by ``(run id, frame index)``."""
+    """The last ``size`` screened messages by ``(run id, frame index)``.
 
-    def __init__(self, screen: Screen, key: str, kind: str | None, size: int) -> None:
+    ``compact(got)``, when given, is what is kept of each message (taken on arrival,
+    outside the lock): a consumer that needs less than a whole frame keeps less.
+    """
+
+    def __init__(self, screen: Screen, key: str, kind: str | None, size: int,
+                 compact: Callable[[Received], Received] | None = None) -> None:
         super().__init__(screen, key, kind)
         self.size = size
+        self._compact = compact
         self._items: collections.OrderedDict[tuple[str, int], Received] = (
             collections.OrderedDict())
+        self._newest: tuple[str | None, int] = (None, -1)
+        """The run and the highest frame index kept so far."""
+
+    def _screened(self, sample: Any) -> Received | None:
+        got = super()._screened(sample)
+        return got if got is None or self._compact is None else self._compact(got)
 
     def _keep(self, got: Received) -> None:
         h = got.message.header
         self._items[(h.run_id, h.frame_index)] = got
+        self._newest = (h.run_id, max(h.frame_index, self._newest[1])
+                        if h.run_id == self._newest[0] else h.frame_index)
         while len(self._items) > self.size:
             self._items.popitem(last=False)
             self._screen.stats.dropped += 1
@@ -243,12 +257,14 @@ class Recent(_Holder):
 
         With a ``timeout`` (seconds), a message not yet kept is waited for
         that long (a result can arrive before the frame it belongs to: the
-        two travel from different publishers); a wake stops the wait.
+        two travel from different publishers), unless a later frame of its run
+        has come already (it will not); a wake stops the wait.
         """
         key = (run_id, frame_index)
         deadline = time.monotonic() + timeout
         with self._cond:
-            while key not in self._items and not self._woken:
+            while (key not in self._items and not self._woken
+                   and not (self._newest[0] == run_id and self._newest[1] > frame_index)):
                 left = deadline - time.monotonic()
                 if left <= 0:
                     break

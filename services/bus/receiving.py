@@ -64,9 +64,12 @@ class Receiving:
         """The last message of a kind of this stream."""
         return self._hold(Latest(self.screen, topic_key(self.stream, kind), kind))
 
-    def recent(self, kind: str, size: int) -> Recent:
-        """The last ``size`` messages of a kind of this stream, by frame."""
-        return self._hold(Recent(self.screen, topic_key(self.stream, kind), kind, size))
+    def recent(self, kind: str, size: int,
+               compact: Callable[[Received], Received] | None = None) -> Recent:
+        """The last ``size`` messages of a kind of this stream, by frame (each as
+        ``compact`` makes it, when given)."""
+        return self._hold(Recent(self.screen, topic_key(self.stream, kind), kind, size,
+                                 compact))
 
     def messages(self, kind_or_key: str, capacity: int = 1, kind: str | None = None,
                  count_lost: bool = False) -> Iterator[Received]:
