@@ -9,9 +9,13 @@ Run: ``.venv/bin/python bench/bench_reliability.py [--runs 50] [--small-model]``
    the ``.rrd`` verifies (``rerun rrd verify``) and the ``.rec`` loads whole.
    Target: 0 hangs, every ``.rrd`` verifies, every ``.rec`` loads.
 2. **Option errors**: each bad option of ``aamtrack run`` (a text, truncated
-   or old model, a garbage or NaN calibration, ``--fov 0``, ``--jpeg 500``,
-   ``--loop -1``, a video over 4096 px, a busy endpoint), with the time to its
-   exit. Target: exit 2 with one line, within 2 s.
+   or old model, a garbage or NaN calibration, one of focal length 1e300,
+   ``--fov 0``, ``--jpeg 500``, ``--loop -1``, a video over 4096 px, a busy
+   endpoint, output files that cannot be written, a camera that is not there),
+   with the time to its exit. Target: exit 2 with one line, within 2 s.
+3. **Hostile and careless peers** (:mod:`reliability_cases`): extreme fits, a
+   forged frame 0, a forged end of stream, the pose service killed, another OS
+   user; each case ``--hostile-runs`` times. Target: every case passes every run.
 """
 
 from __future__ import annotations
@@ -133,7 +137,18 @@ def bad_inputs(folder: Path, model: Path) -> list[tuple[str, list[str]]]:
     for _ in range(3):
         writer.write(np.zeros((16, 4200, 3), np.uint8))
     writer.release()
+    huge = folder / "huge.json"
+    huge.write_text('{"camera_matrix": [[1e300, 0, 320], [0, 1e300, 240], [0, 0, 1]], '
+                    '"image_width": 640, "image_height": 480}')
     return [("text model", ["--video", video, "--model", str(text)]),
+            ("calibration fx 1e300", ["--video", video, "--calibration", str(huge)]),
+            ("--rrd /proc/x.rrd", ["--video", video, "--rrd", "/proc/x.rrd"]),
+            ("--rrd into no folder", ["--video", video, "--rrd", str(folder / "no" / "x.rrd")]),
+            ("--rrd a folder", ["--video", video, "--rrd", str(folder)]),
+            ("--summary into no folder", ["--video", video, "--summary",
+                                          str(folder / "no" / "s.json")]),
+            ("--record /proc/x.rec", ["--video", video, "--record", "/proc/x.rec"]),
+            ("--camera 7", ["--camera", "7"]),
             ("truncated model", ["--video", video, "--model", str(cut)]),
             ("model of format 1", ["--video", video, "--model", str(old)]),
             ("garbage calibration", ["--video", video, "--calibration", str(garbage)]),
@@ -167,19 +182,44 @@ def option_errors(model: Path) -> bool:
     return ok
 
 
+def hostile(runs: int, model: Path, classifier: Path) -> bool:
+    from reliability_cases import CASES
+
+    argv = ["--video", str(data_root() / "videos" / "single_face.mp4"), "--model", str(model),
+            "--classifier", str(classifier), "--no-ar"]
+    ok = True
+    print(f"{'case':<16}{'passed':>9}  last run")
+    for name, case in CASES.items():
+        results = [case(argv) for _ in range(runs)]
+        passed = sum(good for good, _ in results)
+        ok &= passed == runs
+        print(f"{name:<16}{passed:>5} of {runs}  {results[-1][1]}", flush=True)
+    print(f"{'PASS' if ok else 'FAIL'}: every hostile case passes in every run")
+    return ok
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=50)
     parser.add_argument("--small-model", action="store_true",
                         help="the small test model (120 images), as the tests use")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--hostile-runs", type=int, default=20)
+    parser.add_argument("--only", choices=("options", "interrupts", "hostile"),
+                        help="one section only")
     args = parser.parse_args()
     model = (default_model_path(max_images=10, limit=300) if args.small_model
              else default_model_path())
     classifier = classifier_path(model)
-    ok = option_errors(model)
-    print()
-    ok &= interrupts(args.runs, model, classifier, args.seed)
+    ok = True
+    if args.only in (None, "options"):
+        ok &= option_errors(model)
+        print()
+    if args.only in (None, "hostile"):
+        ok &= hostile(args.hostile_runs, model, classifier)
+        print()
+    if args.only in (None, "interrupts"):
+        ok &= interrupts(args.runs, model, classifier, args.seed)
     return 0 if ok else 1
 
 
