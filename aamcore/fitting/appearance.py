@@ -1,22 +1,52 @@
-"""The AAM appearance ``c`` of given landmarks, for methods that fit without the AAM.
+"""The AAM appearance of given landmarks, for the methods that find landmarks without the AAM.
 
-The local-binary method finds landmarks without sampling the face's texture; a
-consumer of the appearance (expression recognition, the ``chi2`` failure test)
-gets it here: one texture warp inside the landmarks, projected on the texture
-model, with the shape parameters of the landmarks, as the supervised-descent
-method computes it after its last stage.
+The local-binary method finds landmarks without sampling the face's texture;
+the fitter then gets the AAM's view of the face here: one texture warp inside
+the landmarks (the GL worker's or the CPU's), projected on the texture model,
+with the shape parameters of the landmarks, into the combined parameters
+``c``; and the per-pixel texture residual ``g - g_model(c)`` of eq. 6.19, as
+the AAM methods leave it after their last iteration.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from aamcore.fitting.residuals import ResidualFunction, WarpFn
+from aamcore.fitting.residuals import ResidualFunction, WarpFn, per_pixel
 from aamcore.model.aam import AAM
+from aamcore.model.similarity import Similarity
+
+
+@dataclass(frozen=True)
+class Projection:
+    """The appearance of a face at given landmarks.
+
+    Attributes
+    ----------
+    c : (t_c,) float64 array
+        Combined appearance parameters.
+    texture : (M C,) float32 array
+        The normalised texture sampled.
+    residual : (M,) float32 array
+        ``g - g_model(c)`` per reference-frame pixel (see
+        :attr:`aamcore.fitting.result.AAMFit.residual`).
+    error : float
+        Mean squared residual.
+    similarity : Similarity
+        The placement of ``c``'s shape on the landmarks (least squares).
+    """
+
+    c: np.ndarray
+    texture: np.ndarray
+    residual: np.ndarray
+    error: float
+    similarity: Similarity
 
 
 class AppearanceSampler:
-    """Appearance ``c`` and texture error of an AAM at landmarks.
+    """Appearance ``c`` and texture residual of an AAM at landmarks.
 
     Parameters
     ----------
@@ -31,15 +61,18 @@ class AppearanceSampler:
         self.texture_mean = aam.texture.mean.astype(np.float32)
         self.texture_components = np.ascontiguousarray(aam.texture.pca.components, np.float32)
 
-    def __call__(self, image: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, float]:
-        """``c`` (t_c,) and the texture model's residual error of landmarks ``points`` (N, 2)
-        on a raw ``image`` (prepared for the AAM here)."""
-        prepared = self.aam.prepare_image(image, points)
+    def project(self, prepared: np.ndarray, points: np.ndarray) -> Projection:
+        """The appearance at landmarks ``points`` (N, 2) of an image prepared for the AAM
+        (:meth:`aamcore.model.aam.AAM.prepare_image`)."""
         g = self.residual.image_texture(prepared, points)
-        centred = g - self.texture_mean
-        b_g = centred @ self.texture_components
-        b_s, _ = self.aam.shape.fit_points(points, iterations=2)
+        b_g = (g - self.texture_mean) @ self.texture_components
+        b_s, sim = self.aam.shape.fit_points(points, iterations=2)
         c = self.aam.combined.params(b_s, b_g.astype(np.float64))
-        # the texture model's residual: its components are orthonormal
-        error = max(float(centred @ centred - b_g @ b_g), 0.0) / g.size
-        return c, error
+        r = per_pixel(g - self.residual.model_texture(c), self.aam.channels)
+        return Projection(c, g, r, float(r @ r) / r.size, sim)
+
+    def __call__(self, image: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, float]:
+        """``c`` (t_c,) and the texture error of landmarks ``points`` (N, 2) on a raw
+        ``image`` (prepared for the AAM here)."""
+        found = self.project(self.aam.prepare_image(image, points), points)
+        return found.c, found.error
