@@ -289,6 +289,9 @@ def classifier_path(model_path: str | Path, algorithm: str = FITTER.algorithm,
     DatasetError
         When JAFFE is missing or none of its faces can be classified.
     """
+    if features not in FEATURE_SETS:
+        raise ValueError(f"unknown expression features {features!r}: choose one of "
+                         f"{list(FEATURE_SETS)}")
     fingerprint = model_fingerprint(model_path)
     path = cache_dir() / f"expression-{fingerprint}-{algorithm}-{features}-v{TRAINING_VERSION}.npz"
     if not path.is_file():

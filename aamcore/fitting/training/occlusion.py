@@ -18,6 +18,7 @@ training views are flagged.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 
@@ -248,7 +249,8 @@ def _placed(landmarks: Landmarks | None, image: np.ndarray, truth: np.ndarray,
 def _fit_model(views: _Views, aam: AAM, weights: np.ndarray, config: OcclusionTrainConfig,
                n_faces: int) -> OcclusionModel:
     """Standardise, fit the network, set the landmark threshold."""
-    from sklearn.neural_network import MLPClassifier  # a slow import, training only
+    from sklearn.exceptions import ConvergenceWarning  # slow imports, training only
+    from sklearn.neural_network import MLPClassifier
 
     F = np.stack(views.features)  # (V, T, K)
     shares = np.stack(views.triangles)
@@ -264,7 +266,9 @@ def _fit_model(views: _Views, aam: AAM, weights: np.ndarray, config: OcclusionTr
     keep = covered | visible
     net = MLPClassifier((h,), alpha=config.regularisation, max_iter=config.epochs,
                         random_state=config.seed, early_stopping=True)
-    net.fit(X[keep], covered[keep])
+    with warnings.catch_warnings():  # a fixed number of epochs is the recipe
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        net.fit(X[keep], covered[keep])
     model = OcclusionModel(centre, scale, net.coefs_[0].astype(np.float64),
                            net.intercepts_[0].astype(np.float64),
                            net.coefs_[1][:, 0].astype(np.float64), float(net.intercepts_[1][0]),
