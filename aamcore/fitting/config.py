@@ -34,8 +34,11 @@ class FitterConfig:
         residual of the triangles around it (needs the appearance and a model
         with an occlusion part).
     refine : int
-        After a regressor's landmarks, this many iterations of the fixed-Jacobian
-        AAM from them (0: none).
+        After a regressor's landmarks, this many iterations of ``refine_with`` from
+        them (0: none).
+    refine_with : {"fixed-jacobian", "supervised-descent"}
+        The AAM method that refines: the fixed-Jacobian update (Algorithm 7), or the
+        last stages of the supervised-descent cascade.
     max_iterations : int or None
         Iteration limit of the iterative AAM methods (each has its own default).
     """
@@ -45,6 +48,7 @@ class FitterConfig:
     appearance: bool = True
     occlusion: bool = True
     refine: int = 0
+    refine_with: str = "fixed-jacobian"
     max_iterations: int | None = None
 
 

@@ -18,6 +18,8 @@ from aamcore.fitting.result import AAMFit, LandmarkFit
 from aamcore.model.similarity import Similarity
 
 NO_APPEARANCE = np.zeros(0)
+REFINERS = ("fixed-jacobian", "supervised-descent")
+"""The AAM methods that can refine a regressor's landmarks (``refine_with``)."""
 
 
 def failure_kind(failure_test: str, algorithm: str) -> str:
@@ -47,7 +49,7 @@ class Fitter:
     failure_test : {"auto", "chi2", "eq7.2", "quality"}
         How a failed fit is recognised (:class:`FailureTest`, :class:`QualityTest`;
         ``auto``: see :func:`failure_kind`).
-    appearance, occlusion, refine
+    appearance, occlusion, refine, refine_with
         As :class:`~aamcore.fitting.config.FitterConfig` says; a test of ``c``
         (``chi2``, ``eq7.2``) samples the appearance whatever ``appearance`` says.
 
@@ -68,6 +70,7 @@ class Fitter:
         *,
         occlusion: bool = FITTER.occlusion,
         refine: int = FITTER.refine,
+        refine_with: str = FITTER.refine_with,
     ) -> None:
         self.model = model
         self.aam = model.aam
@@ -85,10 +88,12 @@ class Fitter:
         sample = regressor and (appearance or refine > 0 or self.failure_test in APPEARANCE_TESTS)
         self.sampler = AppearanceSampler(self.aam, warp) if sample else None
         self.refiner = None
+        self.refine = refine
         if regressor and refine > 0:
-            from aamcore.fitting.algorithm.fixed_jacobian import FixedJacobian
-
-            self.refiner = FixedJacobian.from_model(model, AlgorithmSettings(warp, refine))
+            if refine_with not in REFINERS:
+                raise ValueError(f"cannot refine with {refine_with!r}: choose one of {REFINERS}")
+            settings = AlgorithmSettings(warp, refine)
+            self.refiner = make_algorithm(refine_with, model, settings)
         judged = occlusion and model.occlusion is not None and (sample or not regressor)
         self.occlusion = OcclusionTest(model.occlusion, self.aam) if judged else None
         self.zero = np.zeros(self.aam.n_appearance)
@@ -98,7 +103,8 @@ class Fitter:
                     warp: WarpFn | None = None) -> Fitter:
         """The fitter ``config`` describes."""
         return cls(model, config.algorithm, config.max_iterations, warp, config.failure_test,
-                   config.appearance, occlusion=config.occlusion, refine=config.refine)
+                   config.appearance, occlusion=config.occlusion, refine=config.refine,
+                   refine_with=config.refine_with)
 
     def _scorer(self, model: FittingModel):
         """What scores fits for the quality test: the algorithm itself if it is the
@@ -171,7 +177,10 @@ class Fitter:
                                       errors=[found.error], texture=found.texture)
         if self.refiner is None or not np.all(np.isfinite(found.c)):
             return sampled
-        refined = self.refiner.run(prepared, found.c, found.similarity)
+        if hasattr(self.refiner, "refine"):  # the cascade's last stages, from the landmarks
+            refined = self.refiner.refine(prepared, fit.points, self.refine)
+        else:  # the AAM's iterations from the appearance projected at the landmarks
+            refined = self.refiner.run(prepared, found.c, found.similarity)
         if refined.failed:
             return sampled
         return AAMFit(points=refined.points, similarity=refined.similarity, score=fit.score,

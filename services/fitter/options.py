@@ -38,9 +38,11 @@ class FitterOptions(Options):
                               "each")
     occlusion: bool = option(FITTER.occlusion, "flag the landmarks whose part of the face is "
                              "covered, from the texture residual around them")
-    refine: int = option(FITTER.refine, "after a regressor's landmarks, this many "
-                         "fixed-Jacobian AAM iterations (0: none)", metavar="N",
-                         check=in_range(0, 100))
+    refine: int = option(FITTER.refine, "after a regressor's landmarks, this many iterations "
+                         "of --refine-with (0: none)", metavar="N", check=in_range(0, 100))
+    refine_with: str = option(FITTER.refine_with, "the AAM method that refines: the "
+                              "fixed-Jacobian update, or the supervised-descent cascade's last "
+                              "stages", choices=("fixed-jacobian", "supervised-descent"))
     warp: str = option("auto", "where the image warp runs: auto (the GPU worker thread on a "
                        "hardware GL renderer, else the CPU), gpu (falls back to cpu) or cpu",
                        choices=WARPS)
@@ -55,4 +57,4 @@ class FitterOptions(Options):
     def config(self) -> FitterConfig:
         """The library's configuration of the fitting these options ask for."""
         return FitterConfig(self.algorithm, self.failure_test, self.appearance, self.occlusion,
-                            self.refine)
+                            self.refine, self.refine_with)

@@ -30,7 +30,7 @@ from services.stack.registry import SERVICES
 RUN_OPTIONS: dict[str, tuple[str, ...] | None] = {
     "source": None,
     "fitter": ("model", "model_limit", "model_images", "model_update", "algorithm",
-               "failure_test", "appearance", "occlusion", "refine", "warp"),
+               "failure_test", "appearance", "occlusion", "refine", "refine_with", "warp"),
     "pose": ("fov", "calibration", "estimator"),
     "expression": ("classifier",),
     "rerun": ("rrd", "serve", "viewer"),
@@ -174,7 +174,8 @@ def profiled(name: str, options: Options | None, profile: Profile) -> Options:
     choices = {
         "fitter": {"algorithm": fit.algorithm, "failure_test": fit.failure_test,
                    "appearance": fit.appearance, "occlusion": fit.occlusion,
-                   "refine": fit.refine, "model_update": profile.update_method},
+                   "refine": fit.refine, "refine_with": fit.refine_with,
+                   "model_update": profile.update_method},
         "pose": {"estimator": profile.pose_estimator},
     }.get(name, {})
     return options.replace(**choices) if profile.name != "default" else options

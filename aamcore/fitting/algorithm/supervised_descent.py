@@ -105,8 +105,22 @@ class SupervisedDescent(ModelAlgorithm):
             b, sim = shape_model.fit_points(shape, iterations=2)
         else:  # the mean shape placed by the start: nothing to fit
             b, sim = np.zeros(shape_model.n_modes), start
+        return self._descend(image, shape, b, sim, 0)
+
+    def refine(self, image: np.ndarray, points: np.ndarray, stages: int) -> AAMFit:
+        """The last ``stages`` stages of the cascade from landmarks ``points`` (N, 2) on a
+        prepared ``image`` (the fine stages, for landmarks already near the face's)."""
+        b, sim = self.aam.shape.fit_points(points, iterations=2)
+        shape = sim.apply(self.aam.shape.instance(b))
+        return self._descend(image, shape, b, sim, max(len(self.weights) - stages, 0))
+
+    def _descend(self, image: np.ndarray, shape: np.ndarray, b: np.ndarray, sim: Similarity,
+                 first: int) -> AAMFit:
+        """The stages from ``first`` on, from ``shape`` (shape parameters ``b`` placed by
+        ``sim``), then the appearance at the shape reached."""
+        shape_model = self.aam.shape
         seconds = []
-        for stage in range(len(self.weights)):
+        for stage in range(first, len(self.weights)):
             begun = time.perf_counter()
             target = self.step(image, shape, sim, stage)
             if not np.all(np.isfinite(target)):

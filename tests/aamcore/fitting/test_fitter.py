@@ -174,3 +174,8 @@ def test_refinement_iterates_the_aam_from_the_landmarks(imm_fit_model, imm_test)
     # the model instance of c, not of the landmarks) and only takes steps that lower it.
     assert refined.score == projected.score and refined.error == refined.errors[-1]
     assert all(b <= a for a, b in zip(refined.errors, refined.errors[1:], strict=False))
+    staged = Fitter(imm_fit_model, refine=2, refine_with="supervised-descent").fit_box(image, box)
+    assert isinstance(staged, AAMFit) and staged.iterations == 2 and staged.ok
+    assert staged.score == projected.score
+    with pytest.raises(ValueError, match="cannot refine with 'project-out-ic'"):
+        Fitter(imm_fit_model, refine=2, refine_with="project-out-ic")
