@@ -45,6 +45,10 @@ class Projection:
     similarity: Similarity
 
 
+ROI_MARGIN = 2
+"""Pixels around the landmarks' box that a bilinear sample inside their hull may read."""
+
+
 class AppearanceSampler:
     """Appearance ``c`` and texture residual of an AAM at landmarks.
 
@@ -70,6 +74,25 @@ class AppearanceSampler:
         c = self.aam.combined.params(b_s, b_g.astype(np.float64))
         r = per_pixel(g - self.residual.model_texture(c), self.aam.channels)
         return Projection(c, g, r, float(r @ r) / r.size, sim)
+
+    def project_frame(self, image: np.ndarray, points: np.ndarray) -> Projection:
+        """:meth:`project` on a raw frame: only the face's box (the landmarks' bounding box
+        and a pixel or two for the bilinear samples) is converted for the AAM, not the
+        whole frame (a model that equalises the face converts it all); the texture sampled
+        is the same."""
+        height, width = image.shape[:2]
+        lo = np.floor(points.min(axis=0)).astype(int) - ROI_MARGIN
+        hi = np.ceil(points.max(axis=0)).astype(int) + ROI_MARGIN + 1
+        x0, y0 = max(int(lo[0]), 0), max(int(lo[1]), 0)
+        x1, y1 = min(int(hi[0]), width), min(int(hi[1]), height)
+        if x1 - x0 < 2 or y1 - y0 < 2 or self.aam.equalise:
+            # outside the frame, or equalised over a region of its own: the whole frame
+            return self.project(self.aam.prepare_image(image, points), points)
+        local = points - np.array([x0, y0], np.float64)
+        found = self.project(self.aam.prepare_image(image[y0:y1, x0:x1], local), local)
+        sim = found.similarity
+        return Projection(found.c, found.texture, found.residual, found.error,
+                          Similarity(sim.a, sim.b, sim.tx + x0, sim.ty + y0))
 
     def __call__(self, image: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, float]:
         """``c`` (t_c,) and the texture error of landmarks ``points`` (N, 2) on a raw

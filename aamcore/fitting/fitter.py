@@ -171,12 +171,12 @@ class Fitter:
         """A regressor's good ``fit`` with the AAM's appearance at its landmarks, refined
         by a few fixed-Jacobian iterations where asked."""
         assert self.sampler is not None
-        prepared = self.aam.prepare_image(image, fit.points)
-        found = self.sampler.project(prepared, fit.points)
+        found = self.sampler.project_frame(image, fit.points)
         sampled = AAMFit.of_landmarks(fit, found.c, found.residual, found.error,
                                       errors=[found.error], texture=found.texture)
         if self.refiner is None or not np.all(np.isfinite(found.c)):
             return sampled
+        prepared = self.aam.prepare_image(image, fit.points)  # the AAM may leave the box
         if hasattr(self.refiner, "refine"):  # the cascade's last stages, from the landmarks
             refined = self.refiner.refine(prepared, fit.points, self.refine)
         else:  # the AAM's iterations from the appearance projected at the landmarks
