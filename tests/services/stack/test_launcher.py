@@ -209,9 +209,8 @@ def flood(intruder: Service) -> None:
     frame_key, fit_key = intruder.key("frame"), intruder.key("fit")
     image = np.zeros((24, 32, 3), np.uint8)
     fit = Fit(Header.now(intruder.stream, 3, "fitter", run_id="run-other"), "ibug68",
-              np.zeros((68, 2), np.float32) + 100, np.zeros(5, np.float32),
-              np.array([1.0, 0.0, 0.0, 0.0], np.float32), 32, 24, 0.0, 1, True, False, "", "cpu",
-              0.5)
+              np.zeros((68, 2), np.float32) + 100, np.array([1.0, 0.0, 0.0, 0.0], np.float32),
+              32, 24, False, "", 0.5, "none", None)
     for k in range(INVALID // 2):
         intruder.put(frame_key, b"\x93not a message" + k.to_bytes(4, "little"), MUST_ARRIVE)
         intruder.put(fit_key, b"\xc1" * (2 << 20) if k < 10 else b"\xc1", MUST_ARRIVE)
