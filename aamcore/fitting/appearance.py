@@ -63,15 +63,25 @@ class AppearanceSampler:
         self.aam = aam
         self.residual = ResidualFunction(aam, warp)
         self.texture_mean = aam.texture.mean.astype(np.float32)
-        self.texture_components = np.ascontiguousarray(aam.texture.pca.components, np.float32)
+        # c = (w b_s - mu_s) C_s + (b_g - mu_g) C_g with b_g = P^T (g - mean): the texture
+        # part is (g - mean) @ (P C_g), the basis the residual needs anyway (one product of
+        # t_c columns instead of the texture model's t_g).
+        combined = aam.combined
+        n_s = aam.shape.n_modes
+        components, mean = combined.pca.components, combined.pca.mean
+        self._shape_part = components[:n_s]
+        self._shape_mean = mean[:n_s]
+        self._offset = -mean[n_s:] @ components[n_s:]
+        self._weight = combined.weight
+        self._texture_basis_t = np.ascontiguousarray(aam.texture_basis.T, np.float32)
 
     def project(self, prepared: np.ndarray, points: np.ndarray) -> Projection:
         """The appearance at landmarks ``points`` (N, 2) of an image prepared for the AAM
         (:meth:`aamcore.model.aam.AAM.prepare_image`)."""
         g = self.residual.image_texture(prepared, points)
-        b_g = (g - self.texture_mean) @ self.texture_components
         b_s, sim = self.aam.shape.fit_points(points, iterations=2)
-        c = self.aam.combined.params(b_s, b_g.astype(np.float64))
+        c = ((self._weight * b_s - self._shape_mean) @ self._shape_part + self._offset
+             + (self._texture_basis_t @ (g - self.texture_mean)).astype(np.float64))
         r = per_pixel(g - self.residual.model_texture(c), self.aam.channels)
         return Projection(c, g, r, float(r @ r) / r.size, sim)
 
