@@ -99,7 +99,9 @@ class AppearanceSampler:
             # outside the frame, or equalised over a region of its own: the whole frame
             return self.project(self.aam.prepare_image(image, points), points)
         local = points - np.array([x0, y0], np.float64)
-        found = self.project(self.aam.prepare_image(image[y0:y1, x0:x1], local), local)
+        # a contiguous copy: OpenCV converts a strided view three times slower
+        box = np.ascontiguousarray(image[y0:y1, x0:x1])
+        found = self.project(self.aam.prepare_image(box, local), local)
         sim = found.similarity
         return Projection(found.c, found.texture, found.residual, found.error,
                           Similarity(sim.a, sim.b, sim.tx + x0, sim.ty + y0))
