@@ -88,15 +88,17 @@ class AppearanceSampler:
     def project_frame(self, image: np.ndarray, points: np.ndarray) -> Projection:
         """:meth:`project` on a raw frame: only the face's box (the landmarks' bounding box
         and a pixel or two for the bilinear samples) is converted for the AAM, not the
-        whole frame (a model that equalises the face converts it all); the texture sampled
-        is the same."""
+        whole frame (a model that equalises the face, and the GPU path, get it all); the
+        texture sampled is the same."""
         height, width = image.shape[:2]
         lo = np.floor(points.min(axis=0)).astype(int) - ROI_MARGIN
         hi = np.ceil(points.max(axis=0)).astype(int) + ROI_MARGIN + 1
         x0, y0 = max(int(lo[0]), 0), max(int(lo[1]), 0)
         x1, y1 = min(int(hi[0]), width), min(int(hi[1]), height)
-        if x1 - x0 < 2 or y1 - y0 < 2 or self.aam.equalise:
-            # outside the frame, or equalised over a region of its own: the whole frame
+        on_gpu = getattr(self.residual.warp, "path", "cpu") == "gpu"
+        if x1 - x0 < 2 or y1 - y0 < 2 or self.aam.equalise or on_gpu:
+            # outside the frame, equalised over a region of its own, or uploaded to the GL
+            # worker (a texture of the frame's size is reused; a box's changes every frame)
             return self.project(self.aam.prepare_image(image, points), points)
         local = points - np.array([x0, y0], np.float64)
         # a contiguous copy: OpenCV converts a strided view three times slower
