@@ -22,13 +22,19 @@ from proto.limits import ProtoError
 
 @dataclass(frozen=True, eq=False)
 class Group:
-    """Base of a group of fields declared with specs."""
+    """Base of a group of fields declared with specs (and of every message's body,
+    :class:`proto.message.Message`)."""
 
     NAME: ClassVar[str] = ""
+    """How errors name the group (``fit.appearance``)."""
+
+    @classmethod
+    def _prefix(cls) -> str:
+        return cls.NAME
 
     def __post_init__(self) -> None:
         for name, s in self.specs().items():
-            object.__setattr__(self, name, s.check(getattr(self, name), f"{self.NAME}.{name}"))
+            object.__setattr__(self, name, s.check(getattr(self, name), f"{self._prefix()}.{name}"))
         self._check()
 
     def _check(self) -> None:
