@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -28,14 +28,16 @@ from aamcore import defaults
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.expression.classifier_file import ExpressionClassifier
 from aamcore.expression.recogniser import ExpressionRecogniser, Recognition
+from aamcore.fitting.config import FITTER, FitterConfig
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
-from aamcore.fitting.result import FitResult
+from aamcore.fitting.result import AAMFit, LandmarkFit, appearance_of
 from aamcore.fitting.search import SearchSchedule
 from aamcore.fitting.tracker import Tracker
 from aamcore.model.similarity import Similarity
 from aamcore.pose import IntrinsicsError, PoseError
 from aamcore.pose.estimator import Cameras, HeadPose, HeadPoseEstimator, HeadPoseTracker
+from aamcore.profiles import profile_named
 from aamcore.smoothing import LandmarkSmoother
 
 DEFAULT_FPS = 30.0
@@ -81,6 +83,10 @@ class FaceResult:
         Why there is no expression (``"<key>: <details>"``: no face, face in
         profile, learning the face's reference, ...); empty with one or
         without a classifier.
+    occluded : (N,) bool array or None
+        Per landmark, whether its part of the face is covered (from the AAM's
+        texture residual); None where it was not judged (no face, a failed fit,
+        a model without an occlusion part).
     """
 
     frame_index: int
@@ -99,6 +105,7 @@ class FaceResult:
     expression_scores: dict[str, float] = field(default_factory=dict)
     reason: str = ""
     expression_reason: str = ""
+    occluded: np.ndarray | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The result as plain JSON-ready data (lists, floats, None for what is missing)."""
@@ -118,6 +125,7 @@ class FaceResult:
             "yaw_deg": num(self.yaw_deg), "pose_reliable": self.pose_reliable,
             "expression": self.expression, "expression_scores": dict(self.expression_scores),
             "reason": self.reason, "expression_reason": self.expression_reason,
+            "occluded": None if self.occluded is None else [bool(v) for v in self.occluded],
         }
 
 
@@ -133,22 +141,23 @@ def _model(model: str | Path | FittingModel | None) -> tuple[FittingModel, Path 
 
 
 def _recogniser(classifier: str | Path | ExpressionClassifier | None, model: FittingModel,
-                path: Path | None, smooth: int) -> ExpressionRecogniser | None:
-    """The expression recogniser of a classifier for ``model``'s fits, or None without one.
+                path: Path | None, algorithm: str, smooth: int) -> ExpressionRecogniser | None:
+    """The expression recogniser of a classifier for the fits of ``model`` by ``algorithm``,
+    or None without one.
 
     Raises
     ------
     ClassifierFileError, AAMMismatchError
-        For an unreadable classifier file, or a classifier made for another model.
+        For an unreadable classifier file, or a classifier made for other fits.
     """
     if classifier is None:
         return None
     if not isinstance(classifier, ExpressionClassifier):
         classifier = ExpressionClassifier.load(classifier)
     if path is not None:
-        from aamcore.expression.training import model_fingerprint
+        from aamcore.expression.training import check_made_for, model_fingerprint
 
-        classifier.check_aam(model_fingerprint(path))
+        check_made_for(classifier, model_fingerprint(path), algorithm)
     aam = model.aam
     classifier.check_fit(aam.scheme.name, aam.scheme.n_points, aam.n_appearance)
     return ExpressionRecogniser(classifier, smooth)
@@ -160,48 +169,67 @@ class FaceTracker:
     Parameters
     ----------
     model : path or FittingModel, optional
-        The fitting model; the default model (trained and cached on first use) if None.
-    classifier : path or ExpressionClassifier, optional
+        The fitting model; the profile's (or the default) model, trained and cached on
+        first use, if None.
+    classifier : path, ExpressionClassifier or False, optional
         Expression classifier for the model's fits
-        (:func:`aamcore.expression.training.classifier_path` makes one); no
-        expression without one. A classifier made for another model is refused
+        (:func:`aamcore.expression.training.classifier_path` makes one). None: the
+        profile's classifier where a profile is named (trained and cached on first
+        use), else no expression; False: no expression. A classifier made for other
+        fits (another model or algorithm) is refused
         (:class:`~aamcore.expression.AAMMismatchError`).
     camera : str or float, optional
         A calibration file, or a horizontal field of view in degrees
         (:data:`aamcore.defaults.FOV_DEG` if None).
-    algorithm, failure_test : str
-        As :class:`~aamcore.fitting.fitter.Fitter` takes them.
+    profile : str, optional
+        A pipeline of :data:`aamcore.profiles.PROFILES` (``"default"``, ``"thesis"``):
+        its model, fitting, head-pose estimator and expression features, unless given
+        here.
+    algorithm, failure_test : str, optional
+        As :class:`~aamcore.fitting.fitter.Fitter` takes them (the profile's, or
+        :data:`~aamcore.fitting.config.FITTER`'s).
     smoothing : bool
         Smooth landmarks and pose over time (One Euro filter, :mod:`aamcore.smoothing`).
-    pose_estimator : str
+    pose_estimator : str, optional
         One of :data:`aamcore.defaults.POSE_ESTIMATORS`
         (:class:`~aamcore.pose.estimator.HeadPoseEstimator`).
     expression_smooth : int
         Average the expression scores over this many classified frames (the
         expression service's ``--smooth``; 1: none).
+    fitter : FitterConfig, optional
+        The whole fitting configuration (``algorithm`` and ``failure_test`` override it).
     search : SearchSchedule, optional
         Which frames without a face are searched (the stack's default; for offline
         work where time is no object, :meth:`SearchSchedule.every_frame`).
     """
 
     def __init__(self, model: str | Path | FittingModel | None = None,
-                 classifier: str | Path | ExpressionClassifier | None = None,
-                 camera: str | float | None = None, *, algorithm: str = defaults.ALGORITHM,
-                 failure_test: str = defaults.FAILURE_TEST, smoothing: bool = False,
-                 pose_estimator: str = defaults.POSE_ESTIMATOR,
-                 expression_smooth: int = 1, search: SearchSchedule | None = None) -> None:
+                 classifier: str | Path | ExpressionClassifier | bool | None = None,
+                 camera: str | float | None = None, *, profile: str | None = None,
+                 algorithm: str | None = None, failure_test: str | None = None,
+                 smoothing: bool = False, pose_estimator: str | None = None,
+                 expression_smooth: int = 1, fitter: FitterConfig | None = None,
+                 search: SearchSchedule | None = None) -> None:
+        chosen = profile_named(profile) if profile else None
+        config = fitter or (chosen.fitter if chosen else FITTER)
+        given = {"algorithm": algorithm, "failure_test": failure_test}
+        config = replace(config, **{k: v for k, v in given.items() if v is not None})
+        self.config = config
+        self.profile = chosen
+        if model is None and chosen is not None:
+            model = chosen.model_path()
         self.model, path = _model(model)
-        self.expression = _recogniser(classifier, self.model, path, expression_smooth)
-        # Sampled only for a classifier that reads the appearance c (a method such as
-        # local-binary computes none), as the stack's fitter does.
-        fitter = Fitter(self.model, algorithm, failure_test=failure_test,
-                        appearance=self.expression is not None
-                        and "appearance" in self.expression.classifier.pipeline.features.blocks)
-        self.tracker = Tracker(fitter, HaarFaceDetector(), search)
+        if classifier is None and chosen is not None and path is not None:
+            classifier = chosen.classifier_path(path, config.algorithm)
+        self.expression = _recogniser(classifier or None, self.model, path,  # type: ignore
+                                      config.algorithm, expression_smooth)
+        self.tracker = Tracker(Fitter.from_config(self.model, config), HaarFaceDetector(),
+                               search)
         calibration = camera if isinstance(camera, str | Path) else None
         fov = float(camera) if isinstance(camera, int | float) else defaults.FOV_DEG
         cameras = Cameras(fov, str(calibration) if calibration else None)
-        self.pose = HeadPoseTracker(HeadPoseEstimator(cameras, method=pose_estimator), smoothing)
+        method = pose_estimator or (chosen.pose_estimator if chosen else defaults.POSE_ESTIMATOR)
+        self.pose = HeadPoseTracker(HeadPoseEstimator(cameras, method=method), smoothing)
         self.landmarks = LandmarkSmoother() if smoothing else None
         self.frames = 0
 
@@ -236,7 +264,7 @@ class FaceTracker:
         expression = self.recognise(index, frame, fit, points)
         return result_of(index, t, fit, points, pose, why, expression)
 
-    def recognise(self, index: int, frame: np.ndarray, fit: FitResult | None,
+    def recognise(self, index: int, frame: np.ndarray, fit: LandmarkFit | None,
                   points: np.ndarray | None) -> Recognition | None:
         """The expression of frame ``index`` from its fit (None: no face) and the landmarks
         the result carries (smoothed or not), as the expression service computes it from the
@@ -245,8 +273,8 @@ class FaceTracker:
             return None
         if fit is None:
             return self.expression.recognise(index, frame, None, None, True, NO_FACE)
-        return self.expression.recognise(index, frame, points, fit.c, fit.failed, fit.reason,
-                                         self.model.aam.scheme.name)
+        return self.expression.recognise(index, frame, points, appearance_of(fit), fit.failed,
+                                         fit.reason, self.model.aam.scheme.name)
 
     def process_video(self, path: str | Path) -> Iterator[FaceResult]:
         """The result of every frame of a video file, timestamps from its frame rate.
@@ -275,10 +303,11 @@ class FaceTracker:
             capture.release()
 
 
-def result_of(index: int, t: float, fit: FitResult, points: np.ndarray, pose: HeadPose | None,
-              why: str, expression: Recognition | None) -> FaceResult:
+def result_of(index: int, t: float, fit: LandmarkFit, points: np.ndarray,
+              pose: HeadPose | None, why: str, expression: Recognition | None) -> FaceResult:
     """A :class:`FaceResult` of its parts."""
     reason = fit.reason or why
+    occluded = fit.occluded if isinstance(fit, AAMFit) and not fit.failed else None
     scores: dict[str, float] = {}
     label, expression_reason = None, ""
     if expression is not None:
@@ -288,9 +317,9 @@ def result_of(index: int, t: float, fit: FitResult, points: np.ndarray, pose: He
     if pose is None:
         return FaceResult(index, t, fit.ok, fit.confidence, points, fit.similarity,
                           reason=reason, expression=label, expression_scores=scores,
-                          expression_reason=expression_reason)
+                          expression_reason=expression_reason, occluded=occluded)
     est = pose.estimate
     roll, pitch, yaw = est.rpy
     return FaceResult(index, t, fit.ok, fit.confidence, points, fit.similarity, est.R, est.T,
                       float(roll), float(pitch), float(yaw), bool(est.reliable and fit.ok),
-                      label, scores, reason or pose.reason, expression_reason)
+                      label, scores, reason or pose.reason, expression_reason, occluded)

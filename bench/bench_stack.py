@@ -14,6 +14,9 @@
 3. **Per stage**, for the throughput run: processing time per message (p50
    and p99 of each service's own status), CPU seconds per frame of each
    process (from ``/proc``) and its share of all the stack's CPU time.
+4. **Warps**: the fitter's texture warps per frame and milliseconds per warp on
+   each path (its status counts them), and the fits that carry the AAM's
+   appearance, so that ``--warp gpu`` and ``--warp cpu`` compare two paths.
 
 Run: ``python bench/bench_stack.py [--loops 8] [--latency-loops 3] [--warp gpu|cpu]
 [--small-model] [--no-ar] [--rerun]``. It prints the tables and PASS/FAIL lines.
@@ -24,6 +27,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import re
 import sys
 import tempfile
 import threading
@@ -119,6 +123,28 @@ def throughput(result: RunResult) -> tuple[float, bool, str]:
     return fps, complete, note
 
 
+WARPS = re.compile(r"warps gpu (\d+)(?: \(([\d.]+) ms\))?, cpu (\d+)(?: \(([\d.]+) ms\))?")
+
+
+def warp_line(result: RunResult) -> str:
+    """The fitter's warps per frame and time per warp by path, from its last status."""
+    message = result.summary["services"].get("fitter", {}).get("message", "")
+    found = WARPS.search(message)
+    fits = by_kind(result.messages, "fit")
+    with_c = sum(f.appearance is not None for f in fits.values())
+    good = sum(not f.failed for f in fits.values())
+    paths = sorted({f.warp_path for f in fits.values()})
+    if found is None:
+        return f"fitter warps: not reported ({message!r})"
+    gpu, gpu_ms, cpu, cpu_ms = found.groups()
+    total = result.summary["total_frames"]
+    per = (int(gpu) + int(cpu)) / max(total, 1)
+    times = ", ".join(f"{p} {ms} ms per warp" for p, ms in (("gpu", gpu_ms), ("cpu", cpu_ms))
+                      if ms)
+    return (f"fitter warps: {per:.2f} per frame (gpu {gpu}, cpu {cpu}; {times or 'none'}); "
+            f"fits with the appearance {with_c} of {good} good; warp paths {paths}")
+
+
 def stage_table(result: RunResult) -> str:
     total = result.summary["total_frames"]
     cpu_total = sum(v for v in result.cpu.values() if np.isfinite(v))
@@ -176,6 +202,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"latency, real-time pacing, {args.latency_loops} plays: capture to pose p50 "
           f"{p50:.1f} ms, p99 {p99:.1f} ms over {len(lat)} poses "
           f"({fitter_drop} frames dropped by the fitter)")
+    print(warp_line(fast))
     print("\nper stage, throughput run:")
     print(stage_table(fast))
     ok_fps = fps >= TARGET_FPS and complete

@@ -52,21 +52,29 @@ def _header(producer: str, frame_index: int = 42) -> Header:
 def _fit() -> kinds.Fit:
     index = np.arange(68)
     landmarks = np.stack([100 + (index % 17) * 8.5, 150 + (index // 17) * 12.25], axis=1)
+    residual = np.zeros((4, 5))
+    residual[1:3, 1:4] = [[0.25, -0.5, 0.125], [1.5, -0.0625, 0.75]]
+    occluded = np.zeros(68, np.uint8)
+    occluded[48:60] = 1  # the outer lips, behind a hand
     return kinds.Fit(
         _header("fitter"),
         scheme="ibug68",
         landmarks=landmarks,
-        appearance=np.array([0.5, -1.25, 0.125, 2.0, -0.0625]),
         similarity=np.array([1.03125, -0.015625, 12.5, -7.75]),
         image_width=640,
         image_height=480,
-        texture_error=0.0123,
-        iterations=7,
-        converged=True,
         failed=False,
         failure_reason="",
-        warp_path="gpu",
         confidence=0.875,
+        warp_path="gpu",
+        appearance=kinds.FitAppearance(
+            c=np.array([0.5, -1.25, 0.125, 2.0, -0.0625]),
+            texture_residual=residual,
+            texture_error=0.0123,
+            iterations=0,
+            converged=True,
+            occluded=occluded,
+        ),
     )
 
 

@@ -20,7 +20,8 @@ SCHEMA_VERSION = 4
 """Version of the message contract; any change to a field or a rule bumps it.
 Version 2: ``run_id`` in the header; ``fit.similarity`` (was ``pose``) and the
 fit's frame size; ``status.lost`` and ``status.ignored``. Version 3:
-``media_time_ns`` in the header. Version 4: ``status.failed``, the header's ``auth``."""
+``media_time_ns`` in the header. Version 4: ``status.failed``, the header's ``auth``, the
+fit's appearance as one map (nil without one), ``warp_path`` ``none``."""
 
 
 AUTH_HEX = 32

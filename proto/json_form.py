@@ -23,11 +23,14 @@ from proto.arrays import ARRAY_KEYS, DTYPES
 from proto.fields import NAN_JSON, Float
 from proto.images import ImageSpec
 from proto.messages import MESSAGE_TYPES, Message
+from proto.record import GroupSpec
 
 
 def _nan_to_json(value: Any) -> Any:
     if isinstance(value, list):
         return [_nan_to_json(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _nan_to_json(v) for k, v in value.items()}
     if isinstance(value, float) and math.isnan(value):
         return NAN_JSON
     return value
@@ -89,6 +92,10 @@ def _field_to_wire(spec: Any, value: Any) -> Any:
             raise ValueError(f"image is not base64: {exc}") from None
     if isinstance(spec, Float) and value == NAN_JSON:
         return math.nan
+    if isinstance(spec, GroupSpec) and isinstance(value, dict):
+        specs = spec.group.specs()
+        return {k: _field_to_wire(specs[k], v) if k in specs else _array_to_wire(v)
+                for k, v in value.items()}
     return _array_to_wire(value)
 
 

@@ -10,7 +10,7 @@ to a constructor are converted to the wire dtype, copied only when needed.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import Any, ClassVar, Self
 
 import msgpack
@@ -20,6 +20,7 @@ from proto.fields import Int, Spec, Str, check_keys, type_name
 from proto.header import Header
 from proto.keys import topic_key
 from proto.limits import MAX_IMAGE_HEIGHT, MAX_IMAGE_WIDTH, MAX_SMALL_ARRAY_BYTES, ProtoError
+from proto.record import Group
 
 
 def spec(s: Spec) -> Any:
@@ -39,35 +40,26 @@ NAME = Str(min_len=1)
 
 
 @dataclass(frozen=True, eq=False)
-class Message:
-    """Base of every message kind: a header and the body fields of the subclass."""
+class Message(Group):
+    """Base of every message kind: a header and the body fields of the subclass (validated,
+    specs read and ``to_dict`` as a :class:`~proto.record.Group`'s; rules across fields in
+    ``_check``, overridden by kinds)."""
 
     KIND: ClassVar[str] = ""
     header: Header
 
+    @classmethod
+    def _prefix(cls) -> str:
+        return cls.KIND
+
     def __post_init__(self) -> None:
         if not isinstance(self.header, Header):
             raise ProtoError(f"{self.KIND}.header: expected a Header, got {type_name(self.header)}")
-        for name, s in self.specs().items():
-            object.__setattr__(self, name, s.check(getattr(self, name), f"{self.KIND}.{name}"))
-        self._check()
-
-    def _check(self) -> None:
-        """Rules that tie fields together; raise ``ProtoError``. Overridden by kinds."""
-
-    @classmethod
-    @functools.cache
-    def specs(cls) -> dict[str, Spec]:
-        """Body field name -> spec, in wire order."""
-        return {f.name: f.metadata["spec"] for f in fields(cls) if "spec" in f.metadata}
+        super().__post_init__()
 
     def key(self) -> str:
         """The Zenoh key this message is published on."""
         return topic_key(self.header.stream_id, self.KIND)
-
-    def to_dict(self) -> dict[str, Any]:
-        """The body as a msgpack-ready map (arrays as ``{"dtype", "shape", "data"}``)."""
-        return {name: s.encode(getattr(self, name)) for name, s in self.specs().items()}
 
     @classmethod
     def from_dict(cls, body: Any, header: Header) -> Self:

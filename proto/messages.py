@@ -22,8 +22,10 @@ from proto.images import Frame, Overlay
 from proto.keys import check_name, status_key
 from proto.limits import ProtoError
 from proto.message import COUNT, HEIGHT, NAME, WIDTH, Message, small, spec
+from proto.record import Group, GroupSpec
 
-WARP_PATHS = ("gpu", "cpu")
+WARP_PATHS = ("gpu", "cpu", "none")
+"""Where a fit's texture warps ran; ``none`` when nothing was warped."""
 STATES = ("starting", "running", "waiting", "degraded", "stopping", "stopped", "failed")
 """Service states of ``Status.state``."""
 
@@ -56,8 +58,45 @@ class FaceBoxes(Message):
 
 
 @dataclass(frozen=True, eq=False)
+class FitAppearance(Group):
+    """The AAM's appearance of the face fitted (a ``fit``'s ``appearance``).
+
+    Parameters
+    ----------
+    c : numpy.ndarray
+        ``(k,)`` float32 combined appearance parameters ``c`` of the AAM.
+    texture_residual : numpy.ndarray
+        ``(H, W)`` float32 texture residual ``g_image - g_model(c)`` of each pixel of the
+        model's reference frame (the shape-normalised face, row-major), in the units of
+        the normalised texture; 0 outside the face's triangles.
+    texture_error : float
+        Mean squared texture residual, >= 0.
+    iterations : int
+        AAM iterations done (0: the appearance was projected at a landmark regressor's
+        landmarks).
+    converged : bool
+        Whether the AAM met its convergence test (a projection counts as converged).
+    occluded : numpy.ndarray
+        ``(N,)`` uint8, one per landmark: 1 where the texture around it says the face is
+        covered, else 0; ``(0,)`` when occlusion was not judged.
+    """
+
+    NAME: ClassVar[str] = "fit.appearance"
+    c: np.ndarray = small("f4", None)
+    texture_residual: np.ndarray = small("f4", None, None)
+    texture_error: float = spec(Float(0.0, math.inf))
+    iterations: int = spec(COUNT)
+    converged: bool = spec(Bool())
+    occluded: np.ndarray = small("u1", None)
+
+    def _check(self) -> None:
+        if (self.occluded > 1).any():
+            raise ProtoError("fit.appearance.occluded: values must be 0 or 1")
+
+
+@dataclass(frozen=True, eq=False)
 class Fit(Message):
-    """The AAM fitted to a face in one frame.
+    """The landmarks fitted to a face in one frame, and the AAM's appearance of it.
 
     Parameters
     ----------
@@ -65,44 +104,38 @@ class Fit(Message):
         Landmark scheme name (e.g. ``"ibug68"``).
     landmarks : numpy.ndarray
         ``(N, 2)`` float32 landmark positions ``x, y`` in frame pixels.
-    appearance : numpy.ndarray
-        ``(k,)`` float32 combined appearance parameters ``c``.
     similarity : numpy.ndarray
         ``(4,)`` float32 ``a, b, tx, ty``: the 2D similarity
         ``x -> [[a, -b], [b, a]] x + (tx, ty)`` placing the model frame in the
         image (``a = s cos theta``, ``b = s sin theta``); ``(0,)`` without landmarks.
     image_width, image_height : int
         Size of the frame fitted, pixels.
-    texture_error : float
-        Mean squared texture residual, >= 0; NaN when it could not be computed.
-    iterations : int
-        Fitting iterations done.
-    converged : bool
-        Whether the fit met its convergence test.
     failed : bool
         Whether the failure test rejected the fit (the face is lost).
     failure_reason : str
         Why it failed; empty exactly when ``failed`` is false.
-    warp_path : str
-        ``"gpu"`` or ``"cpu"``: where the image warp ran.
     confidence : float
         How much the fit looks like a face, 0 to 1 (0 without a face or for a failed fit).
+    warp_path : str
+        ``"gpu"`` or ``"cpu"``: where the fit's texture warps ran; ``"none"`` when nothing
+        was warped (a landmark regressor's fit without an appearance).
+    appearance : FitAppearance or None
+        The AAM's appearance of the face (a map of the fields of ``FitAppearance``), or
+        nil (None) when the fit has none: no face, a failed regressor fit, or a
+        regressor's fit with the appearance turned off.
     """
 
     KIND: ClassVar[str] = "fit"
     scheme: str = spec(NAME)
     landmarks: np.ndarray = small("f4", None, 2)
-    appearance: np.ndarray = small("f4", None)
     similarity: np.ndarray = small("f4", None)
     image_width: int = spec(WIDTH)
     image_height: int = spec(HEIGHT)
-    texture_error: float = spec(Float(0.0, math.inf, allow_nan=True))
-    iterations: int = spec(COUNT)
-    converged: bool = spec(Bool())
     failed: bool = spec(Bool())
     failure_reason: str = spec(Str())
-    warp_path: str = spec(Str(choices=WARP_PATHS))
     confidence: float = spec(Float(0.0, 1.0))
+    warp_path: str = spec(Str(choices=WARP_PATHS))
+    appearance: FitAppearance | None = spec(GroupSpec(FitAppearance))
 
     def _check(self) -> None:
         if len(self.similarity) not in (0, 4):
@@ -112,6 +145,21 @@ class Fit(Message):
                 "fit.failure_reason: must be non-empty exactly when failed is true "
                 f"(failed={self.failed}, reason={self.failure_reason!r})"
             )
+        found = self.appearance
+        if found is None:
+            return
+        if len(self.landmarks) == 0 or self.warp_path == "none":
+            raise ProtoError("fit.appearance: an appearance needs landmarks and a warp_path "
+                             f"other than 'none' (got {len(self.landmarks)} landmarks, "
+                             f"warp_path {self.warp_path!r})")
+        if len(found.occluded) not in (0, len(self.landmarks)):
+            raise ProtoError(f"fit.appearance.occluded: {len(found.occluded)} flags for "
+                             f"{len(self.landmarks)} landmarks (expected one each, or none)")
+
+    @property
+    def c(self) -> np.ndarray | None:
+        """The appearance parameters ``c`` (k,), None without an appearance."""
+        return None if self.appearance is None else self.appearance.c
 
 
 @dataclass(frozen=True, eq=False)

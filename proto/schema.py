@@ -40,6 +40,7 @@ from proto.images import JPEG_MAGIC, ImageSpec
 from proto.json_form import dumps
 from proto.keys import NAME_MAX_LEN, check_name
 from proto.messages import MESSAGE_TYPES, Message
+from proto.record import GroupSpec
 from proto.schema_rules import _HEADER_EXTRA, CONVENTIONS, JSON_FORM, RULES
 
 DRAFT = "https://json-schema.org/draft/2020-12/schema"
@@ -129,9 +130,23 @@ def fragment(spec: Any) -> dict[str, Any]:
         }
     if isinstance(spec, Str | StrList):
         return spec.json_schema(PATTERNS)
+    if isinstance(spec, GroupSpec):
+        return group_schema(spec)
     if hasattr(spec, "json_schema"):
         return spec.json_schema()
     raise TypeError(f"no JSON Schema for the spec {spec!r}")
+
+
+def group_schema(spec: GroupSpec) -> dict[str, Any]:
+    """The fragment of a field holding a group of fields: an object of exactly them (each
+    described by the group's docstring), or null where the field may be nil."""
+    docs = parameter_docs(spec.group)
+    props = {name: _described(fragment(s), docs[name]) for name, s in spec.group.specs().items()}
+    group = {"type": "object", "description": summary(spec.group), "properties": props,
+             "required": list(props), "additionalProperties": False}
+    if not spec.nullable:
+        return group
+    return {"anyOf": [group, {"type": "null"}]}
 
 
 def _described(frag: dict[str, Any], *texts: str) -> dict[str, Any]:

@@ -73,6 +73,14 @@ RULES: dict[str, list[tuple[str, dict[str, Any] | None]]] = {
                 "else": {"properties": {"failure_reason": {"maxLength": 0}}},
             },
         ),
+        (
+            'an appearance (not null) needs landmarks and a warp_path of "gpu" or "cpu"',
+            {
+                "if": {"properties": {"appearance": {"type": "object"}}},
+                "then": {"properties": {"warp_path": {"enum": ["gpu", "cpu"]}}},
+            },
+        ),
+        ("appearance.occluded has one flag (0 or 1) per landmark, or none", None),
     ],
     "pose": [
         (

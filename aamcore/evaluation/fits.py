@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass
@@ -28,6 +29,7 @@ from aamcore.evaluation.metrics import (
     summarise,
 )
 from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.result import AAMFit
 from aamcore.io import FaceSample
 from aamcore.io.landmarks import as_points
 from aamcore.model.aam import AAM
@@ -139,9 +141,9 @@ def _record(
         point_to_point(result.points, gt),
         point_to_border(result.points, gt, scheme),
         procrustes_distance(result.points, gt),
-        float(result.error),
+        float(result.error) if isinstance(result, AAMFit) else math.nan,
         bool(result.failed),
-        int(result.iterations),
+        int(result.iterations) if isinstance(result, AAMFit) else len(result.seconds),
         seconds,
     )
 

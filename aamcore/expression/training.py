@@ -1,17 +1,22 @@
 """The expression classifier for the fitting model in use: trained on JAFFE on first use, cached.
 
-Landmarks and appearance vectors only make sense for the model that fitted
-them, so the cached file is named after the model file's fingerprint (a hash
-of its bytes) and records it (``ExpressionClassifier.aam_fingerprint``).
+Landmarks and appearance vectors only make sense for the model and the
+algorithm that fitted them, so the cached file is named after the model file's
+fingerprint (a hash of its bytes), the fitting algorithm and the feature set
+(:func:`classifier_path`), records them (``ExpressionClassifier.aam_fingerprint``
+and ``info["algorithm"]``), and a classifier made for other fits is refused at
+load (:func:`check_made_for`).
 
 Training sees each JAFFE face as the stack sees a frame (:func:`stack_observations`):
 a new stream, the Haar detector with the detector service's settings, the
 fitter with the default algorithm and failure test, the landmarks and ``c``
-at the precision of the ``Fit`` message. It then learns the deployed variant
-(:data:`~aamcore.expression.variants.DEPLOYED`) on every face the quality
-gate accepts (failed fits included: the fitter's appearance test rejects many
-strongly expressive faces whose landmarks are right), each relative to the
-median of its poser's faces (:func:`train_deployed`).
+at the precision of the ``Fit`` message. It then learns the feature set's
+variant on every face the quality gate accepts (failed fits included: the
+fitter's appearance test rejects many strongly expressive faces whose
+landmarks are right): ``deployed`` (:data:`~aamcore.expression.variants.DEPLOYED`),
+each face relative to the median of its poser's faces (:func:`train_deployed`),
+or ``thesis``, the thesis's LDA + Mahalanobis on the absolute appearance ``c``
+(:func:`train_thesis`).
 """
 
 from __future__ import annotations
@@ -19,7 +24,7 @@ from __future__ import annotations
 import hashlib
 import os
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -30,24 +35,32 @@ from aamcore import defaults
 from aamcore.config import cache_dir
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.expression.analysis import observe
-from aamcore.expression.classifier_file import ExpressionClassifier
+from aamcore.expression.classifier_file import AAMMismatchError, ExpressionClassifier
 from aamcore.expression.crop import FaceObservation, canonical_shape
 from aamcore.expression.face_classifier import FittedFaceClassifier, fit_face_classifier
 from aamcore.expression.labels import SEVEN_CLASSES
 from aamcore.expression.quality import landmark_problem
 from aamcore.expression.reference import poser_references
 from aamcore.expression.spec import STREAM_REFERENCE, PipelineSpec, QualityLimits
-from aamcore.expression.variants import DEPLOYED, Variant
+from aamcore.expression.variants import DEPLOYED, Variant, variant_named
+from aamcore.fitting.config import FITTER, FitterConfig
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
+from aamcore.fitting.result import appearance_of
 from aamcore.fitting.tracker import Tracker
 from aamcore.io.jaffe import load_jaffe
 from aamcore.io.sample import DatasetError
 from aamcore.progress import note, progress
 
-TRAINING_VERSION = 5
+TRAINING_VERSION = 6
 """Bump when the training below changes, so that cached classifiers are retrained (3: the
-RBF SVM of raw ``c``; 4 was the research branch's; 5: the face-feature pipeline)."""
+RBF SVM of raw ``c``; 4 was the research branch's; 5: the face-feature pipeline; 6: keyed
+by algorithm and feature set, the thesis's LDA + Mahalanobis on ``c``)."""
+FEATURE_SETS: dict[str, str] = {
+    "deployed": DEPLOYED.name,
+    "thesis": "c, absolute, LDA+Mahalanobis (thesis)",
+}
+"""Feature set -> the variant (:data:`~aamcore.expression.variants.VARIANTS`) trained."""
 
 
 def model_fingerprint(model_path: str | Path) -> str:
@@ -83,23 +96,23 @@ class JaffeFaces:
         return np.array([o.landmarks.size == 0 for o in self.observations], dtype=bool)
 
 
-def stack_observations(model: FittingModel, images: Iterable[np.ndarray]) -> list[FaceObservation]:
+def stack_observations(model: FittingModel, images: Iterable[np.ndarray],
+                       config: FitterConfig = FITTER) -> list[FaceObservation]:
     """Each image fitted as the first frame of a stream of the stack, as an observation.
 
     Parameters
     ----------
     model : FittingModel
     images : iterable of (H, W) or (H, W, 3) uint8 arrays
+    config : FitterConfig
+        The fitting the stack does (its appearance is sampled whatever it says).
 
     Returns
     -------
     list of FaceObservation
         Without landmarks (reason ``"no face"``) where Haar found none.
     """
-    # The appearance c is sampled for the variants that classify it (the default method
-    # computes none).
-    fitter = Fitter(model, defaults.ALGORITHM, failure_test=defaults.FAILURE_TEST,
-                    appearance=True)
+    fitter = Fitter.from_config(model, replace(config, appearance=True, occlusion=False))
     tracker = Tracker(fitter, HaarFaceDetector(**defaults.DETECTOR))
     out = []
     for image in images:
@@ -108,13 +121,15 @@ def stack_observations(model: FittingModel, images: Iterable[np.ndarray]) -> lis
         if result is None:
             out.append(FaceObservation.from_arrays(image, None, None, True, "no face"))
         else:
-            out.append(FaceObservation.from_arrays(image, result.points, result.c,
+            out.append(FaceObservation.from_arrays(image, result.points, appearance_of(result),
                                                    result.failed, result.reason))
     return out
 
 
-def jaffe_faces(model_path: str | Path, folder: str | Path | None = None) -> JaffeFaces:
-    """Every JAFFE image fitted by the model in ``model_path``, with its class and poser.
+def jaffe_faces(model_path: str | Path, folder: str | Path | None = None,
+                config: FitterConfig = FITTER) -> JaffeFaces:
+    """Every JAFFE image fitted by the model in ``model_path`` as ``config`` says, with its
+    class and poser.
 
     Raises
     ------
@@ -126,7 +141,7 @@ def jaffe_faces(model_path: str | Path, folder: str | Path | None = None) -> Jaf
         raise DatasetError(f"no JAFFE image in {data.root}")
     images = progress((s.load_image() for s in data.samples), "fitting JAFFE",
                       len(data.samples))
-    observations = stack_observations(FittingModel.load(model_path), images)
+    observations = stack_observations(FittingModel.load(model_path), images, config)
     names = np.array([s.image_path.name for s in data.samples])
     return JaffeFaces(observations, data.labels(), data.posers(), names)
 
@@ -181,36 +196,111 @@ def train_deployed(
     return fitted, spec, int(train.sum())
 
 
-def train_classifier(model_path: str | Path, folder: str | Path | None = None
+def train_thesis(
+    faces: JaffeFaces,
+    appearance_dim: int,
+    limits: QualityLimits = QualityLimits(),
+    reference: Mapping[str, Any] = STREAM_REFERENCE,
+    class_names: Sequence[str] = SEVEN_CLASSES,
+) -> tuple[Any, PipelineSpec, int]:
+    """The thesis's classifier (LDA + Mahalanobis, its Fisher directions chosen by eq. 9.8)
+    of the absolute appearance ``c`` of every classifiable face of ``faces`` with one.
+
+    Returns
+    -------
+    estimator : FisherMahalanobis
+    spec : PipelineSpec
+    n_samples : int
+    """
+    from aamcore.expression.evaluation import lda_mahalanobis_spec
+
+    variant = variant_named(FEATURE_SETS["thesis"])
+    config = variant.config()
+    with_c = [o for o in faces.observations if o.appearance.size == appearance_dim]
+    keep = np.array([o.appearance.size == appearance_dim for o in faces.observations])
+    observed = observe(with_c, config, limits)
+    ok = observed.ok
+    template = shape_template(with_c, ok)
+    for i in np.flatnonzero(ok):
+        ok[i] = not landmark_problem(with_c[i], limits, template)
+    X = observed.vectors(variant.blocks)
+    labels, posers = faces.labels.astype(str)[keep], faces.posers.astype(str)[keep]
+    train = ok & np.isin(labels, list(class_names))
+    if not train.any():
+        raise ValueError("no JAFFE face with an appearance passes the quality gate")
+    with threadpool_limits(limits=1):
+        estimator = lda_mahalanobis_spec().fit(X[train], labels[train], posers[train])
+    spec = PipelineSpec(config, appearance_dim, False, dict(reference), limits, template)
+    return estimator, spec, int(train.sum())
+
+
+def train_classifier(model_path: str | Path, folder: str | Path | None = None,
+                     algorithm: str = FITTER.algorithm, features: str = "deployed"
                      ) -> ExpressionClassifier:
-    """The deployed expression classifier of the fits of ``model_path``, trained on JAFFE."""
-    faces = jaffe_faces(model_path, folder)
+    """The expression classifier of ``features`` (a key of :data:`FEATURE_SETS`) for the fits
+    of ``model_path`` by ``algorithm``, trained on JAFFE."""
+    if features not in FEATURE_SETS:
+        raise ValueError(f"unknown expression features {features!r}: choose one of "
+                         f"{list(FEATURE_SETS)}")
+    # Every fit's landmarks and appearance are classified, failed ones too, so the failure
+    # test (the default's) changes nothing the classifier learns.
+    config = replace(FITTER, algorithm=algorithm)
+    faces = jaffe_faces(model_path, folder, config)
     n_appearance = FittingModel.load(model_path).aam.n_appearance
-    fitted, spec, n = train_deployed(faces, n_appearance)
-    info = {"training": f"jaffe, {DEPLOYED.name}", "samples": n,
-            "training_version": TRAINING_VERSION, "model": Path(model_path).name,
-            "algorithm": defaults.ALGORITHM, "failure_test": defaults.FAILURE_TEST,
+    info = {"training": f"jaffe, {FEATURE_SETS[features]}", "training_version": TRAINING_VERSION,
+            "model": Path(model_path).name, "algorithm": algorithm, "features": features,
+            "failure_test": config.failure_test,
             "fit_failed": int(faces.fit_failed.sum()), "no_face": int(faces.no_face.sum())}
-    return ExpressionClassifier.from_face_classifier(fitted, spec, model_fingerprint(model_path),
-                                                     info)
+    fingerprint = model_fingerprint(model_path)
+    if features == "thesis":
+        estimator, spec, n = train_thesis(faces, n_appearance)
+        return ExpressionClassifier.from_estimator(estimator, fingerprint, spec,
+                                                   info | {"samples": n})
+    fitted, spec, n = train_deployed(faces, n_appearance)
+    return ExpressionClassifier.from_face_classifier(fitted, spec, fingerprint,
+                                                     info | {"samples": n})
 
 
-def classifier_path(model_path: str | Path) -> Path:
-    """The cached classifier for the model in ``model_path``, trained on first use.
+def check_made_for(classifier: ExpressionClassifier, fingerprint: str, algorithm: str) -> None:
+    """Refuse a classifier made for other fits than those of model ``fingerprint`` by
+    ``algorithm``.
+
+    Raises
+    ------
+    AAMMismatchError
+        With one line naming what the classifier was made for and what it is given.
+    """
+    made = classifier.info.get("algorithm", defaults.ALGORITHM)
+    if classifier.aam_fingerprint != fingerprint or made != algorithm:
+        raise AAMMismatchError(
+            f"this expression classifier was made for the fits of model "
+            f"{classifier.aam_fingerprint} by {made}, not for those of model {fingerprint} by "
+            f"{algorithm}: train one for these fits (aamtrack model prepare, with the same "
+            "--profile or --algorithm)")
+
+
+def classifier_path(model_path: str | Path, algorithm: str = FITTER.algorithm,
+                    features: str = "deployed") -> Path:
+    """The cached classifier of ``features`` for the fits of ``model_path`` by ``algorithm``,
+    trained on first use; the file's name holds the three.
 
     Raises
     ------
     DatasetError
         When JAFFE is missing or none of its faces can be classified.
     """
+    if features not in FEATURE_SETS:
+        raise ValueError(f"unknown expression features {features!r}: choose one of "
+                         f"{list(FEATURE_SETS)}")
     fingerprint = model_fingerprint(model_path)
-    path = cache_dir() / f"expression-{fingerprint}-v{TRAINING_VERSION}.npz"
+    path = cache_dir() / f"expression-{fingerprint}-{algorithm}-{features}-v{TRAINING_VERSION}.npz"
     if not path.is_file():
-        note(f"training the expression classifier for {Path(model_path).name} on JAFFE, "
-             f"once: it is kept in {path.parent}")
+        note(f"training the {features} expression classifier for the fits of "
+             f"{Path(model_path).name} by {algorithm} on JAFFE, once: it is kept in "
+             f"{path.parent}")
         path.parent.mkdir(parents=True, exist_ok=True)
         try:
-            classifier = train_classifier(model_path)
+            classifier = train_classifier(model_path, algorithm=algorithm, features=features)
         except ValueError as exc:  # no classifiable face: nothing to train on
             raise DatasetError(f"no expression classifier for {model_path}: {exc}") from exc
         tmp = path.with_name(f"{path.stem}.tmp{os.getpid()}.npz")

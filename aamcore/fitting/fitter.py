@@ -6,28 +6,37 @@ import math
 
 import numpy as np
 
-from aamcore import defaults
-from aamcore.fitting.algorithm import algorithm_class, make_algorithm
+from aamcore.fitting.algorithm import REGRESSORS, make_algorithm
 from aamcore.fitting.algorithm.base import AlgorithmSettings
 from aamcore.fitting.appearance import AppearanceSampler
+from aamcore.fitting.config import FITTER, FitterConfig
 from aamcore.fitting.failure import APPEARANCE_TESTS, FailureTest, QualityTest
 from aamcore.fitting.model import FittingModel
+from aamcore.fitting.occlusion import OcclusionTest
 from aamcore.fitting.residuals import WarpFn
-from aamcore.fitting.result import FitResult
+from aamcore.fitting.result import AAMFit, LandmarkFit
 from aamcore.model.similarity import Similarity
+
+NO_APPEARANCE = np.zeros(0)
+REFINERS = ("fixed-jacobian", "supervised-descent")
+"""The AAM methods that can refine a regressor's landmarks (``refine_with``)."""
 
 
 def failure_kind(failure_test: str, algorithm: str) -> str:
-    """The failure test ``auto`` stands for with ``algorithm``: ``quality`` for a method that
-    computes no appearance, ``chi2`` for the AAM methods; any other name as it is."""
+    """The failure test ``auto`` stands for with ``algorithm``: ``quality`` for a landmark
+    regressor, ``chi2`` for the AAM methods; any other name as it is."""
     if failure_test != "auto":
         return failure_test
-    computes = getattr(algorithm_class(algorithm), "computes_appearance", True)
-    return "chi2" if computes else "quality"
+    return "quality" if algorithm in REGRESSORS else "chi2"
 
 
 class Fitter:
-    """Fit one model with one algorithm.
+    """Fit one model with one algorithm, and judge the fit once.
+
+    The algorithm finds the landmarks (and, for an AAM method, the appearance);
+    the fitter then applies its one failure test, gives a good regressor's fit
+    the AAM's appearance (:class:`~aamcore.fitting.appearance.AppearanceSampler`),
+    refines it if asked, and flags occluded landmarks.
 
     Parameters
     ----------
@@ -40,10 +49,9 @@ class Fitter:
     failure_test : {"auto", "chi2", "eq7.2", "quality"}
         How a failed fit is recognised (:class:`FailureTest`, :class:`QualityTest`;
         ``auto``: see :func:`failure_kind`).
-    appearance : bool
-        Sample the AAM appearance ``c`` of every good fit of a method that computes
-        none (one texture warp per fit), for consumers of ``c``; a test of ``c``
-        (``chi2``, ``eq7.2``) samples it whatever this says.
+    appearance, occlusion, refine, refine_with
+        As :class:`~aamcore.fitting.config.FitterConfig` says; a test of ``c``
+        (``chi2``, ``eq7.2``) samples the appearance whatever ``appearance`` says.
 
     Raises
     ------
@@ -54,29 +62,49 @@ class Fitter:
     def __init__(
         self,
         model: FittingModel,
-        algorithm: str = defaults.ALGORITHM,
-        max_iterations: int | None = None,
+        algorithm: str = FITTER.algorithm,
+        max_iterations: int | None = FITTER.max_iterations,
         warp: WarpFn | None = None,
-        failure_test: str = defaults.FAILURE_TEST,
-        appearance: bool = False,
+        failure_test: str = FITTER.failure_test,
+        appearance: bool = FITTER.appearance,
+        *,
+        occlusion: bool = FITTER.occlusion,
+        refine: int = FITTER.refine,
+        refine_with: str = FITTER.refine_with,
     ) -> None:
         self.model = model
         self.aam = model.aam
         self.mapping = model.mapping
         self.failure_test = failure_kind(failure_test, algorithm)
         self.failure = FailureTest(self.aam.combined.pca.variances, self.failure_test)
-        self.algorithm = make_algorithm(
-            algorithm, model, AlgorithmSettings(self.failure, warp, max_iterations)
-        )
+        self.algorithm = make_algorithm(algorithm, model, AlgorithmSettings(warp, max_iterations))
         self.quality: QualityTest | None = None
         self.scorer = None
         if self.failure_test == "quality":
             self.scorer = self._scorer(model)
             self.quality = QualityTest(model.binary.threshold)  # type: ignore[union-attr]
-        needs_c = appearance or self.failure_test in APPEARANCE_TESTS
-        computes = getattr(self.algorithm, "computes_appearance", True)
-        self.sampler = AppearanceSampler(self.aam, warp) if needs_c and not computes else None
+        regressor = algorithm in REGRESSORS
+        self.regressor = regressor
+        sample = regressor and (appearance or refine > 0 or self.failure_test in APPEARANCE_TESTS)
+        self.sampler = AppearanceSampler(self.aam, warp) if sample else None
+        self.refiner = None
+        self.refine = refine
+        if regressor and refine > 0:
+            if refine_with not in REFINERS:
+                raise ValueError(f"cannot refine with {refine_with!r}: choose one of {REFINERS}")
+            settings = AlgorithmSettings(warp, refine)
+            self.refiner = make_algorithm(refine_with, model, settings)
+        judged = occlusion and model.occlusion is not None and (sample or not regressor)
+        self.occlusion = OcclusionTest(model.occlusion, self.aam) if judged else None
         self.zero = np.zeros(self.aam.n_appearance)
+
+    @classmethod
+    def from_config(cls, model: FittingModel, config: FitterConfig,
+                    warp: WarpFn | None = None) -> Fitter:
+        """The fitter ``config`` describes."""
+        return cls(model, config.algorithm, config.max_iterations, warp, config.failure_test,
+                   config.appearance, occlusion=config.occlusion, refine=config.refine,
+                   refine_with=config.refine_with)
 
     def _scorer(self, model: FittingModel):
         """What scores fits for the quality test: the algorithm itself if it is the
@@ -85,58 +113,99 @@ class Fitter:
 
         if isinstance(self.algorithm, LocalBinary):
             return self.algorithm
-        return LocalBinary.from_model(model, AlgorithmSettings(self.failure))
+        return LocalBinary.from_model(model, AlgorithmSettings())
 
     @property
     def name(self) -> str:
         return self.algorithm.name
+
+    @property
+    def warps(self) -> bool:
+        """Whether fitting samples textures: an AAM method, or a regressor whose good fits
+        get the AAM's appearance."""
+        return self.sampler is not None or not self.regressor
 
     def prepare(self, image: np.ndarray, shape: np.ndarray | None = None) -> np.ndarray:
         """Convert an input image for the algorithm (channels, equalisation near ``shape``)."""
         prepare = getattr(self.algorithm, "prepare", None)
         return prepare(image, shape) if prepare else self.aam.prepare_image(image, shape)
 
-    def fit(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> FitResult:
+    def fit(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> LandmarkFit:
         """Fit from appearance ``c0`` placed by ``start``."""
         shape = self.aam.shape_instance(c0, start)
         return self._rated(self.algorithm.run(self.prepare(image, shape), c0, start), image)
 
-    def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
+    def track(self, image: np.ndarray, previous: LandmarkFit) -> LandmarkFit:
         """Fit from the previous frame's fit (the algorithm chooses how to start from it)."""
         prepared = self.prepare(image, previous.points)
         return self._rated(self.algorithm.track(prepared, previous), image)
 
-    def _rated(self, result: FitResult, image: np.ndarray) -> FitResult:
-        """``result`` with its appearance (where sampled), its test and its confidence."""
-        if self.quality is not None and self.scorer is not None:
-            if math.isnan(result.score):
-                result.score = self.scorer.score(self.scorer.prepare(image), result.points)
-            if not result.failed:
-                reason = self.quality.reason(result.score)
-                result.failed, result.reason = bool(reason), reason
-        if self.sampler is not None and result.c.size == 0 and not result.failed:
-            result.c, result.error = self.sampler(image, result.points)
+    def _rated(self, fit: LandmarkFit, image: np.ndarray) -> LandmarkFit:
+        """``fit`` judged by the failure test, with its appearance (sampled where the
+        algorithm has none, and refined if asked), its occlusion flags and confidence."""
+        if not fit.failed and self.quality is not None:
+            _judge(fit, self._quality_reason(fit, image))
+        if not fit.failed and self.sampler is not None and not isinstance(fit, AAMFit):
+            fit = self._appearance(fit, image)
+        if isinstance(fit, AAMFit) and not fit.failed:
             if self.failure_test in APPEARANCE_TESTS:
-                reason = self.failure(result.c, result.points)
-                result.failed, result.reason = bool(reason), reason
-        if result.failed:
-            result.confidence = 0.0
+                _judge(fit, self.failure(fit.c, fit.points))
+            if not fit.failed and self.occlusion is not None:
+                fit.occluded = self.occlusion(fit)
+        if fit.failed:
+            fit.confidence = 0.0
         elif self.quality is not None:
-            result.confidence = self.quality.confidence(result.score)
+            fit.confidence = self.quality.confidence(fit.score)
         else:
-            result.confidence = self.failure.confidence(result.c)
-        return result
+            fit.confidence = self.failure.confidence(fit.c) if isinstance(fit, AAMFit) else 0.0
+        return fit
 
-    def fit_shape(self, image: np.ndarray, shape: np.ndarray) -> FitResult:
+    def _quality_reason(self, fit: LandmarkFit, image: np.ndarray) -> str:
+        """Why the quality test fails ``fit`` (its landmarks' learned score), or ``""``."""
+        if math.isnan(fit.score) and self.scorer is not None:
+            fit.score = self.scorer.score(self.scorer.prepare(image), fit.points)
+        c = fit.c if isinstance(fit, AAMFit) else NO_APPEARANCE
+        return self.failure(c, fit.points) or self.quality.reason(fit.score)  # type: ignore
+
+    def _appearance(self, fit: LandmarkFit, image: np.ndarray) -> AAMFit:
+        """A regressor's good ``fit`` with the AAM's appearance at its landmarks, refined
+        by a few fixed-Jacobian iterations where asked."""
+        assert self.sampler is not None
+        found = self.sampler.project_frame(image, fit.points)
+        sampled = AAMFit.of_landmarks(fit, found.c, found.residual, found.error,
+                                      errors=[found.error], texture=found.texture)
+        if self.refiner is None or not np.all(np.isfinite(found.c)):
+            return sampled
+        prepared = self.aam.prepare_image(image, fit.points)  # the AAM may leave the box
+        if hasattr(self.refiner, "refine"):  # the cascade's last stages, from the landmarks
+            refined = self.refiner.refine(prepared, fit.points, self.refine)
+        else:  # the AAM's iterations from the appearance projected at the landmarks
+            refined = self.refiner.run(prepared, found.c, found.similarity)
+        if refined.failed:
+            return sampled
+        return AAMFit(points=refined.points, similarity=refined.similarity, score=fit.score,
+                      seconds=fit.seconds + refined.seconds, c=refined.c,
+                      residual=refined.residual, error=refined.error,
+                      iterations=refined.iterations, converged=refined.converged,
+                      errors=refined.errors)
+
+    def fit_shape(self, image: np.ndarray, shape: np.ndarray) -> LandmarkFit:
         """Fit from the mean face placed on a start ``shape`` (N, 2)."""
         if not np.all(np.isfinite(shape)):
             raise ValueError("start shape has NaN or infinite coordinates")
         _, start = self.aam.shape.fit_points(shape, iterations=1)
         return self.fit(image, self.zero, start)
 
-    def fit_box(self, image: np.ndarray, box: np.ndarray, source: str = "detector") -> FitResult:
+    def fit_box(self, image: np.ndarray, box: np.ndarray, source: str = "detector"
+                ) -> LandmarkFit:
         """Fit from a face box ``(x, y, w, h)`` through the learned mapping."""
         box = np.asarray(box, dtype=np.float64).reshape(4)
         if not np.all(np.isfinite(box)) or box[2] <= 1 or box[3] <= 1:
             raise ValueError(f"invalid face box {box.tolist()}")
         return self.fit_shape(image, self.mapping.place(box, source))
+
+
+def _judge(fit: LandmarkFit, reason: str) -> None:
+    """Mark ``fit`` failed for ``reason`` (none: left as it is)."""
+    if reason:
+        fit.failed, fit.reason = True, reason

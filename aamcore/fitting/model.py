@@ -2,11 +2,13 @@
 
 A :class:`FittingModel` holds the box-to-shape mapping of the initialisation,
 one update matrix per pyramid level (fixed-Jacobian and multi-resolution
-fitting), the supervised-descent cascade and the local-binary cascade (the
-default method, with its quality stage and failure threshold). It is saved as
-the *extra* part
-of the AAM's model file (:mod:`aamcore.model.file`), so one file holds a
-model ready to track with.
+fitting), the supervised-descent cascade, the local-binary cascade (the
+default method, with its quality stage and failure threshold) and the
+occlusion test's statistics. It is saved as the *extra* part of the AAM's
+model file (:mod:`aamcore.model.file`), so one file holds a model ready to
+track with. Each part is a data class of :mod:`aamcore.fitting.learned` (or
+:mod:`~aamcore.fitting.training.update`, :mod:`~aamcore.fitting.occlusion`):
+reading a model imports no fitting algorithm.
 """
 
 from __future__ import annotations
@@ -18,8 +20,8 @@ from typing import Any
 import numpy as np
 
 from aamcore.detection.mapping import BoxToShapeMapping
-from aamcore.fitting.algorithm.local_binary import BinaryCascade
-from aamcore.fitting.algorithm.supervised_descent import DescentCascade
+from aamcore.fitting.learned import BinaryCascade, DescentCascade
+from aamcore.fitting.occlusion import OcclusionModel
 from aamcore.fitting.training.update import PerturbationScheme, UpdateMatrix
 from aamcore.model.aam import AAM
 from aamcore.model.file import ModelFileError, read_model, save_model
@@ -43,6 +45,8 @@ class FittingModel:
         The supervised-descent cascade, when one was trained.
     binary : BinaryCascade or None
         The local-binary cascade, when one was trained (68-point models).
+    occlusion : OcclusionModel or None
+        What the occlusion test learned, when it was trained.
     """
 
     aam: AAM
@@ -50,6 +54,7 @@ class FittingModel:
     updates: list[UpdateMatrix]
     cascade: DescentCascade | None = None
     binary: BinaryCascade | None = None
+    occlusion: OcclusionModel | None = None
 
     def __post_init__(self) -> None:
         expected = (self.aam.n_appearance + 4, self.aam.texture_basis.shape[0])
@@ -57,6 +62,15 @@ class FittingModel:
             if update.R.shape != expected:
                 raise ValueError(f"update matrix of level {level} has shape {update.R.shape}, "
                                  f"the AAM needs {expected}")
+        triangles = len(self.aam.frame.triangles)
+        if self.occlusion is not None and self.occlusion.n_triangles != triangles:
+            raise ValueError(f"occlusion statistics of {self.occlusion.n_triangles} triangles, "
+                             f"the AAM's reference frame has {triangles}")
+
+    @property
+    def update_method(self) -> str:
+        """How the update matrices were learned (``jacobian``, ``regression``), or ``""``."""
+        return self.updates[0].method if self.updates else ""
 
     def update(self, level: int = 0) -> UpdateMatrix:
         """The update matrix of pyramid ``level``."""
@@ -113,6 +127,10 @@ def _record(model: FittingModel) -> tuple[dict[str, Any], dict[str, np.ndarray]]
     if model.binary is not None:
         header["binary"], binary_arrays = model.binary.arrays("binary")
         arrays.update(binary_arrays)
+    header["occlusion"] = None
+    if model.occlusion is not None:
+        header["occlusion"], occlusion_arrays = model.occlusion.arrays("occlusion")
+        arrays.update(occlusion_arrays)
     return header, arrays
 
 
@@ -136,4 +154,7 @@ def _from_record(
         if binary.space.n_points != aam.scheme.n_points:
             raise ValueError(f"local-binary cascade of {binary.space.n_points} points, "
                              f"the AAM has {aam.scheme.n_points}")
-    return FittingModel(aam, mapping, updates, cascade, binary)
+    occlusion = None
+    if header.get("occlusion"):
+        occlusion = OcclusionModel.from_arrays(header["occlusion"], arrays, "occlusion")
+    return FittingModel(aam, mapping, updates, cascade, binary, occlusion)

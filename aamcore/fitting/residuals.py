@@ -55,3 +55,13 @@ class ResidualFunction:
         """Residual (M C,) and its error ``mean(r^2)`` at ``(c, t)``."""
         r = self.image_texture(image, self.shape(c, t)) - self.model_texture(c)
         return r, float(r @ r) / r.size
+
+
+def per_pixel(residual: np.ndarray, channels: int) -> np.ndarray:
+    """A texture residual (M C,) as one float32 value per pixel (M,): for a colour model the
+    root mean square over the channels, signed by their mean."""
+    r = np.asarray(residual, np.float32)
+    if channels == 1:
+        return r
+    r = r.reshape(-1, channels)
+    return (np.sign(r.mean(axis=1)) * np.sqrt((r * r).mean(axis=1))).astype(np.float32)

@@ -5,8 +5,11 @@ run cut short keeps every row before the cut)::
 
     frame, timestamp, success, confidence,
     pose_Tx, pose_Ty, pose_Tz, pose_roll, pose_pitch, pose_yaw, pose_reliable,
-    x_0 ... x_{N-1}, y_0 ... y_{N-1}, expression, score_<class> ..., reason
+    x_0 ... x_{N-1}, y_0 ... y_{N-1}, occluded_0 ... occluded_{N-1},
+    expression, score_<class> ..., reason
 
+``occluded_i`` is 1 where landmark ``i``'s part of the face is covered (from the
+AAM's texture residual), 0 where it is not, empty where it was not judged;
 ``reason`` says why a frame has no face, a failed fit or an unreliable pose.
 
 Translations are millimetres in camera coordinates, angles degrees; a value
@@ -34,6 +37,7 @@ def columns(n_points: int, class_names: Sequence[str]) -> list[str]:
     return (["frame", "timestamp", "success", "confidence", "pose_Tx", "pose_Ty", "pose_Tz",
              "pose_roll", "pose_pitch", "pose_yaw", "pose_reliable"]
             + [f"x_{i}" for i in range(n_points)] + [f"y_{i}" for i in range(n_points)]
+            + [f"occluded_{i}" for i in range(n_points)]
             + ["expression"] + [f"score_{name}" for name in class_names] + ["reason"])
 
 
@@ -52,11 +56,14 @@ def row(result: FaceResult, n_points: int, class_names: Sequence[str]) -> list[s
         ys = [f"{v:.3f}" for v in points[:, 1]]
     else:
         xs = ys = [""] * n_points
+    flags = result.occluded
+    occluded = ([str(int(v)) for v in flags] if flags is not None and len(flags) == n_points
+                else [""] * n_points)
     scores = [_cell(result.expression_scores.get(name, math.nan)) for name in class_names]
     return ([str(result.frame_index), f"{result.timestamp:.6f}", str(int(result.success)),
              f"{result.confidence:.4f}", *pose, _cell(result.roll_deg),
              _cell(result.pitch_deg), _cell(result.yaw_deg),
-             str(int(result.pose_reliable)) if t is not None else "", *xs, *ys,
+             str(int(result.pose_reliable)) if t is not None else "", *xs, *ys, *occluded,
              result.expression or "", *scores, result.reason])
 
 

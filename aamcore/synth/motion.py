@@ -5,7 +5,9 @@ The photo is moved over a 640 x 360 canvas by a smooth random similarity
 starting size), with brightness changes, motion blur while it moves fast, and
 optionally an occluder: a skin-coloured, hand-sized shape that crosses the
 face for a stretch of frames. Landmarks follow by the same transform, so
-every frame has its ground truth; frames covered by the occluder are flagged.
+every frame has its ground truth; frames covered by the occluder are
+flagged, and per landmark the share of its part of the face the occluder
+covers (a disc of :data:`PART_RADIUS` of the face's width around it).
 """
 
 from __future__ import annotations
@@ -22,6 +24,9 @@ SIZE = (640, 360)
 """Canvas width and height."""
 FACE_WIDTH = 150.0
 """Width in pixels of the face's landmark box at scale 1."""
+PART_RADIUS = 0.08
+"""Radius of a landmark's part of the face, in face widths (landmark-box widths): about the
+eye's half width on a frontal face."""
 
 
 @dataclass(frozen=True)
@@ -70,11 +75,15 @@ class Sequence:
         The exact landmarks of every frame.
     occluded : (F,) bool array
         Frames where the occluder covers part of the face.
+    covered : (F, N) float array
+        Per frame and landmark, the share of the landmark's part of the face (a disc of
+        :data:`PART_RADIUS` face widths) the occluder covers, 0 to 1.
     """
 
     frames: list[np.ndarray]
     landmarks: np.ndarray
     occluded: np.ndarray
+    covered: np.ndarray
 
     def write(self, folder: str | Path, fps: float = 30.0) -> Path:
         """Write ``video.avi`` (lossless) and ``truth.npz`` into ``folder``; the video's path.
@@ -118,9 +127,10 @@ def trajectory(spec: MotionSpec, points: np.ndarray) -> list[Similarity]:
     return out
 
 
-def _occluder(frame: np.ndarray, k: int, span: tuple[int, int], box: np.ndarray) -> bool:
-    """Draw the hand at frame ``k`` of its crossing ``span`` over a face ``box``; whether it
-    covers the face."""
+def _occluder(frame: np.ndarray, k: int, span: tuple[int, int], box: np.ndarray,
+              mask: np.ndarray) -> bool:
+    """Draw the hand at frame ``k`` of its crossing ``span`` over a face ``box``, and into
+    ``mask`` (H, W) uint8 as 255; whether it covers the face."""
     first, last = span
     if not first <= k <= last:
         return False
@@ -131,11 +141,29 @@ def _occluder(frame: np.ndarray, k: int, span: tuple[int, int], box: np.ndarray)
     cy = (y0 + y1) / 2 + 0.15 * (y1 - y0)
     axes = (int(0.45 * w), int(0.6 * (y1 - y0)))
     cv2.ellipse(frame, (int(cx), int(cy)), axes, 20, 0, 360, (120, 150, 200), -1)
+    cv2.ellipse(mask, (int(cx), int(cy)), axes, 20, 0, 360, 255, -1)
     fingers = [(int(cx + axes[0] * 0.7), int(cy - axes[1] * (0.5 - 0.25 * j))) for j in range(4)]
     for fx, fy in fingers:
         cv2.ellipse(frame, (fx, fy), (int(0.25 * w), int(0.07 * w)), 10, 0, 360,
                     (115, 145, 195), -1)
+        cv2.ellipse(mask, (fx, fy), (int(0.25 * w), int(0.07 * w)), 10, 0, 360, 255, -1)
     return cx + axes[0] > x0 and cx - axes[0] < x1
+
+
+def covered_shares(mask: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Per landmark (N,), the share of its disc of :data:`PART_RADIUS` face widths that
+    ``mask`` (H, W) marks (non-zero)."""
+    radius = max(PART_RADIUS * float(np.ptp(points[:, 0])), 1.0)
+    height, width = mask.shape
+    r = int(np.ceil(radius))
+    dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
+    disc = dx * dx + dy * dy <= radius * radius
+    out = np.zeros(len(points))
+    for n, (x, y) in enumerate(np.round(points).astype(int)):
+        ys, xs = y + dy[disc], x + dx[disc]
+        inside = (xs >= 0) & (xs < width) & (ys >= 0) & (ys < height)
+        out[n] = float(np.mean(mask[ys[inside], xs[inside]] > 0)) if inside.any() else 0.0
+    return out
 
 
 def _blur(frame: np.ndarray, motion: np.ndarray) -> np.ndarray:
@@ -156,7 +184,7 @@ def generate(photo: np.ndarray, points: np.ndarray, spec: MotionSpec = MotionSpe
     rng = np.random.default_rng(spec.seed + 1)
     sims = trajectory(spec, points)
     light = spec.brightness * _smooth_noise(rng, spec.frames, 1.5)
-    frames, truths, occluded = [], [], []
+    frames, truths, occluded, covered = [], [], [], []
     background = cv2.resize(cv2.GaussianBlur(photo, (0, 0), 25), SIZE)
     for k, sim in enumerate(sims):
         frame = cv2.warpAffine(photo, sim.matrix, SIZE, dst=background.copy(),
@@ -167,8 +195,10 @@ def generate(photo: np.ndarray, points: np.ndarray, spec: MotionSpec = MotionSpe
         shade = light[k] + (rng.normal(0, spec.noise, frame.shape) if spec.noise else 0)
         frame = np.clip(frame.astype(np.float32) + shade, 0, 255).astype(np.uint8)
         box = np.r_[truth.min(axis=0), truth.max(axis=0)]
-        covered = spec.occluder is not None and _occluder(frame, k, spec.occluder, box)
+        mask = np.zeros(frame.shape[:2], np.uint8)
+        over = spec.occluder is not None and _occluder(frame, k, spec.occluder, box, mask)
         frames.append(frame)
         truths.append(truth)
-        occluded.append(covered)
-    return Sequence(frames, np.stack(truths), np.array(occluded))
+        occluded.append(over)
+        covered.append(covered_shares(mask, truth) if over else np.zeros(len(truth)))
+    return Sequence(frames, np.stack(truths), np.array(occluded), np.stack(covered))

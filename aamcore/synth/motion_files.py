@@ -54,12 +54,21 @@ class GroundTruth:
     fps : float
     spec : MotionSpec or None
         How the sequence moves, when it was written with one.
+    covered : (F, N) float array
+        Per frame and landmark, the share of its part of the face the occluder covers
+        (:attr:`aamcore.synth.motion.Sequence.covered`; zeros for a sequence written
+        without it).
     """
 
     landmarks: np.ndarray
     occluded: np.ndarray
     fps: float
     spec: MotionSpec | None
+    covered: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.covered is None:
+            object.__setattr__(self, "covered", np.zeros(self.landmarks.shape[:2]))
 
     @property
     def frames(self) -> int:
@@ -99,7 +108,7 @@ def write_sequence(sequence: Sequence, folder: str | Path, fps: float = 30.0,
     meta = json.dumps(None if spec is None else asdict(spec))
     partial = folder / f".{TRUTH_NAME}.part.npz"
     np.savez(partial, landmarks=sequence.landmarks, occluded=sequence.occluded,
-             fps=np.float64(fps), spec=np.array(meta))
+             covered=sequence.covered, fps=np.float64(fps), spec=np.array(meta))
     os.replace(partial, files.truth)
     return files
 
@@ -124,9 +133,10 @@ def read_ground_truth(folder: str | Path) -> GroundTruth:
     """
     path = Path(folder) / TRUTH_NAME
     with np.load(path) as data:
+        covered = np.array(data["covered"], np.float64) if "covered" in data.files else None
         return GroundTruth(np.array(data["landmarks"], np.float64),
                            np.array(data["occluded"], bool), float(data["fps"]),
-                           _spec(str(data["spec"])))
+                           _spec(str(data["spec"])), covered)
 
 
 def video_path(folder: str | Path) -> Path:

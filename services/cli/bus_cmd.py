@@ -119,8 +119,12 @@ def describe(msg: Message) -> str:
     elif kind == "boxes":
         body = f"{len(msg.boxes)} boxes {msg.boxes.round(1).tolist()}"
     elif kind == "fit":
-        body = (f"{len(msg.landmarks)} points, error {msg.texture_error:.4g}, "
-                f"{msg.iterations} it, warp {msg.warp_path}"
+        found = msg.appearance
+        body = (f"{len(msg.landmarks)} points, "
+                + ("no appearance" if found is None else
+                   f"error {found.texture_error:.4g}, {found.iterations} it, "
+                   f"{int(found.occluded.sum())} occluded")
+                + f", warp {msg.warp_path}"
                 + (f", FAILED: {msg.failure_reason}" if msg.failed else ""))
     elif kind == "pose":
         t = msg.translation_mm

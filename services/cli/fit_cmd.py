@@ -65,6 +65,7 @@ def run_fit(args: argparse.Namespace) -> int:
     from aamcore.detection.haar import HaarFaceDetector
     from aamcore.fitting.fitter import Fitter
     from aamcore.fitting.model import FittingModel
+    from aamcore.fitting.result import AAMFit
     from aamcore.io import read_image
     from aamcore.model.visualise import draw_shape
 
@@ -87,8 +88,9 @@ def run_fit(args: argparse.Namespace) -> int:
                 "landmarks": np.round(fit.points, 3).tolist(),
                 "failed": fit.failed,
                 "reason": fit.reason,
-                "iterations": fit.iterations,
-                "texture_error": fit.error if math.isfinite(fit.error) else None,
+                "iterations": getattr(fit, "iterations", 0),
+                "texture_error": (fit.error if isinstance(fit, AAMFit)
+                                  and math.isfinite(fit.error) else None),
                 "confidence": fit.confidence,
                 "scheme": aam.scheme.name,
             }

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -11,8 +12,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("model", aliases=["models"], help="prepare the default models, inspect one")
     msub = p.add_subparsers(dest="model_command", required=True, metavar="ACTION")
     prep = msub.add_parser(
-        "prepare", help="train the stack's default models now (else the first run does)"
+        "prepare", help="train a profile's models now (else the first run does): the fitting "
+        "model and the expression classifier for its fits"
     )
+    from aamcore.profiles import PROFILES
+
+    prep.add_argument("--profile", choices=tuple(PROFILES), default="default",
+                      help="the pipeline whose models to train (default: default; thesis: the "
+                      "update matrices of the fixed-Jacobian AAM and LDA + Mahalanobis on c)")
+    prep.add_argument("--algorithm", help="the fitting algorithm whose fits the classifier "
+                      "reads (default: the profile's)")
+    prep.add_argument("--update", choices=("jacobian", "regression"),
+                      help="how the model's update matrices are learned (default: the "
+                      "profile's, jacobian)")
     prep.add_argument("--limit", type=int, default=None,
                       help="train on the first N images only (a small model, as --model-limit)")
     prep.add_argument("--update-images", type=int, default=None,
@@ -74,17 +86,26 @@ def print_summary(header: dict[str, Any], path: Path) -> None:
 
 
 def run_prepare(args: argparse.Namespace) -> int:
-    """Train (or find in the cache) the models ``aamtrack run`` uses by default."""
-    from aamcore import defaults
-    from aamcore.fitting.training.prepare import default_model_path
+    """Train (or find in the cache) the models ``aamtrack run --profile P`` uses."""
+    from dataclasses import replace
 
-    model = default_model_path(max_images=args.update_images or defaults.MODEL_UPDATE_IMAGES,
-                               limit=args.limit)
+    from aamcore import defaults
+    from aamcore.fitting.algorithm import ALGORITHMS
+    from aamcore.profiles import profile_named
+
+    profile = profile_named(args.profile)
+    if args.update:
+        profile = replace(profile, update_method=args.update)
+    if args.algorithm and args.algorithm not in ALGORITHMS:
+        print(f"aamtrack model prepare: error: --algorithm {args.algorithm!r}: choose one of "
+              f"{', '.join(ALGORITHMS)}", file=sys.stderr)
+        return 2
+    model = profile.model_path(args.update_images or defaults.MODEL_UPDATE_IMAGES, args.limit)
     print(f"fitting model {model}")
     if not args.no_classifier:
-        from aamcore.expression.training import classifier_path
-
-        print(f"expression classifier {classifier_path(model)}")
+        print(f"expression classifier ({profile.expression} features, "
+              f"{args.algorithm or profile.fitter.algorithm} fits) "
+              f"{profile.classifier_path(model, args.algorithm)}")
     return 0
 
 

@@ -77,6 +77,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="also train what fitting needs (box mapping, update matrices, descent cascade, "
         "the local-binary cascade of the default method)",
     )
+    p.add_argument("--update", choices=("jacobian", "regression"), default="jacobian",
+                   help="with --fit: how the fixed-Jacobian AAM's update matrices are learned: "
+                   "jacobian (thesis Algorithm 6, the default) or regression (Algorithm 5)")
     p.add_argument("--mirror", action=argparse.BooleanOptionalAction, default=True,
                    help="with --fit: also train the local-binary cascade on every face "
                    "flipped left-right (iBUG-68 markup; default on)")
@@ -124,7 +127,8 @@ def run(args: argparse.Namespace) -> int:
     few = subset(samples, args.aam_images or None)
     extra = {"hold_out": args.hold_out_subjects, "fraction": args.train_fraction, "fit": args.fit,
              "split": data.split, "limit": args.limit, "aam_images": args.aam_images,
-             "mirror": args.mirror}
+             "mirror": args.mirror,
+             **({"update": args.update} if args.update != "jacobian" else {})}
     folders = ",".join(str(f) for f in data.folders)
     out = args.out or cache_dir() / f"{data.name}-{cache_key(folders, config, extra)}.npz"
     aam = train_aam(few, data.scheme, config, progress=bar("appearance model"),
@@ -134,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"training the fitters on {len(samples)} faces (box mapping, update matrices and "
               f"descent cascade on {len(few)}, local-binary cascade on all"
               f"{' and their mirror images' if args.mirror else ''})", file=sys.stderr)
-        model = train_fitting_model(aam, samples, bar=bar, mirror=args.mirror,
+        model = train_fitting_model(aam, samples, args.update, bar=bar, mirror=args.mirror,
                                     aam_images=args.aam_images or None)
         path = model.save(out)
     else:

@@ -14,6 +14,8 @@ class ExpressionOptions(Options):
     classifier: str | None = option(None, "expression classifier file (.npz)", metavar="FILE")
     model: str | None = option(None, "the fitting model file the fitter uses, to check that the "
                                "classifier was trained for it", metavar="FILE")
+    algorithm: str | None = option(None, "the fitter's algorithm, to check that the classifier "
+                                   "was trained on its fits (with --model)", metavar="NAME")
     smooth: int = option(1, "average the scores over the last N classified frames (1: none)",
                          metavar="N", check=in_range(1, 1000))
     capacity: int = option(48, "latest fits kept while busy: a burst of fast frames is worked "

@@ -32,7 +32,7 @@ from aamcore.expression import AAMMismatchError, ClassifierFileError, Expression
 from aamcore.expression.crop import grey as crop_grey
 from aamcore.expression.quality import reason_key
 from aamcore.expression.recogniser import ExpressionRecogniser, Recognition
-from aamcore.expression.training import model_fingerprint
+from aamcore.expression.training import check_made_for, model_fingerprint
 from proto import Expression, Fit, Frame, ProtoError
 from services.bus.args import parse_service_args
 from services.bus.images import image_of
@@ -54,18 +54,22 @@ FRAME_WAIT_S = 0.5
 """How long a fit waits for its frame: the source's frame and the fitter's fit travel apart."""
 
 
-def load_classifier(path: str | None, model: str | None) -> tuple[ExpressionClassifier | None, str]:
+def load_classifier(path: str | None, model: str | None, algorithm: str | None = None
+                    ) -> tuple[ExpressionClassifier | None, str]:
     """The classifier, or ``None`` and why there is none.
 
     A classifier is refused when its file is unreadable or of another format
-    or feature version, or when it was trained on the fits of another fitting
-    model than ``model`` (fingerprint).
+    or feature version, or when it was made for the fits of another fitting
+    model than ``model`` (fingerprint), or of another algorithm than
+    ``algorithm`` (when given).
     """
     if not path:
         return None, "no expression classifier given (--classifier)"
     try:
         classifier = ExpressionClassifier.load(path)
-        if model:
+        if model and algorithm:
+            check_made_for(classifier, model_fingerprint(model), algorithm)
+        elif model:
             classifier.check_aam(model_fingerprint(model))
     except (ClassifierFileError, AAMMismatchError, OSError) as exc:
         return None, f"no expression classifier: {exc}"
@@ -108,8 +112,8 @@ def recognise(recogniser: ExpressionRecogniser, fit: Fit, image: np.ndarray) -> 
         For a fit of another landmark scheme or appearance length than the classifier's.
     """
     landmarks = fit.landmarks if len(fit.landmarks) else None
-    return recogniser.recognise(fit.header.frame_index, image, landmarks, fit.appearance,
-                                fit.failed, fit.failure_reason, fit.scheme)
+    return recogniser.recognise(fit.header.frame_index, image, landmarks, fit.c, fit.failed,
+                                fit.failure_reason, fit.scheme)
 
 
 def grey_frame(got: Received) -> Received:
@@ -193,7 +197,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_service_args(NAME, "Facial expression of each fit, from the fit and its frame.",
                               ExpressionOptions, argv)
     init_process(NAME, args.verbose)
-    classifier, why = load_classifier(args.options.classifier, args.options.model)
+    classifier, why = load_classifier(args.options.classifier, args.options.model,
+                                      args.options.algorithm)
     with Service(NAME, args.bus) as svc:
         serve(svc, classifier, why, args.options)
     return 0

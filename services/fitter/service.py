@@ -11,14 +11,18 @@ seconds, the fitter detects locally for ``--local-for`` seconds (logged) and
 then asks the service again.
 
 Every frame taken gets a ``Fit``: a good one, a failed one (``failed`` with
-the reason), or ``failed`` with reason ``no face`` and no landmarks. With the
-default method (``local-binary``) the appearance is sampled only with
-``--appearance`` (the default; the stack turns it off when no expression is
-classified), else the fit carries an empty one. The warp
-runs on the GPU worker thread (:mod:`aamcore.warp.worker`) or the CPU; each
-fit names the path in ``warp_path``. A frame's size belongs to its run: a new
-run starts the tracking afresh, and a frame of another size than its run's
-first is rejected.
+the reason), or ``failed`` with reason ``no face`` and no landmarks. Every
+good fit carries the AAM's appearance (``c``, the per-pixel texture residual,
+the texture error, per-landmark occlusion flags): with the default method
+(``local-binary``, a landmark regressor) the face is sampled into the AAM's
+reference frame after the landmarks and projected (``--no-appearance`` leaves
+it out: nothing is warped). The warps run on the GPU worker thread
+(:mod:`aamcore.warp.worker`, started only for a fitter that warps) or the
+CPU (:mod:`aamcore.warp.paths`); each fit names the path its warps took in
+``warp_path`` (``none`` when nothing was warped), and the status counts the
+warps and their time per path. A frame's size belongs to its run: a new run
+starts the tracking afresh, and a frame of another size than its run's first
+is rejected.
 """
 
 from __future__ import annotations
@@ -33,13 +37,14 @@ import numpy as np
 
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
-from aamcore.fitting.result import FitResult
+from aamcore.fitting.result import AAMFit, LandmarkFit
 from aamcore.fitting.tracker import Tracker
 from aamcore.fitting.training.prepare import default_model_path
 from aamcore.model.file import ModelFileError
 from aamcore.smoothing import LandmarkSmoother
-from aamcore.warp.worker import make_warp
-from proto import Fit, Frame, Header, ProtoError
+from aamcore.warp.paths import FitterWarp
+from aamcore.warp.reference_frame import ReferenceFrame
+from proto import Fit, FitAppearance, Frame, Header, ProtoError
 from services.bus.args import parse_service_args
 from services.bus.images import image_of
 from services.bus.inbox import Received
@@ -52,54 +57,69 @@ NAME = "fitter"
 NO_FACE = "no face"
 EMPTY_POINTS = np.zeros((0, 2), np.float32)
 EMPTY = np.zeros(0, np.float32)
+EMPTY_FLAGS = np.zeros(0, np.uint8)
 
 
 def model_path(opts: FitterOptions) -> Path:
     """The model file to use: ``--model`` or the cached default (trained if needed)."""
     if opts.model:
         return Path(opts.model)
-    return default_model_path(max_images=opts.model_images, limit=opts.model_limit or None)
+    return default_model_path(max_images=opts.model_images, limit=opts.model_limit or None,
+                              update_method=opts.model_update)
 
 
-def fit_message(header: Header, result: FitResult | None, scheme: str, warp_path: str,
-                size: tuple[int, int]) -> Fit:
-    """The ``Fit`` message of a tracking result (``None``: no face found) on a frame of ``size``."""
+def fit_message(header: Header, result: LandmarkFit | None, scheme: str, warp_path: str,
+                size: tuple[int, int], frame: ReferenceFrame | None = None) -> Fit:
+    """The ``Fit`` message of a tracking result (``None``: no face found) on a frame of ``size``,
+    its warps on ``warp_path``; ``frame`` lays an appearance's residual out as an image."""
     width, height = size
     if result is None:
-        return Fit(header, scheme, EMPTY_POINTS, EMPTY, EMPTY, width, height, math.nan, 0,
-                   False, True, NO_FACE, warp_path, 0.0)
+        return Fit(header, scheme, EMPTY_POINTS, EMPTY, width, height, True, NO_FACE, 0.0,
+                   warp_path, None)
     sim = result.similarity
     similarity = np.array([sim.a, sim.b, sim.tx, sim.ty])
-    finite = bool(np.all(np.isfinite(result.points)) and np.all(np.isfinite(result.c))
-                  and np.all(np.isfinite(similarity)))
-    error = float(result.error) if math.isfinite(result.error) else math.nan
+    finite = bool(np.all(np.isfinite(result.points)) and np.all(np.isfinite(similarity)))
+    appearance = appearance_of(result, frame) if finite else None
     reason = result.reason or ("non-finite result" if not finite else "")
     failed = bool(result.failed or not finite)
+    confidence = 0.0 if failed or not math.isfinite(result.confidence) else result.confidence
     return Fit(
         header, scheme,
         result.points.astype(np.float32) if finite else EMPTY_POINTS,
-        result.c.astype(np.float32) if finite else EMPTY,
         similarity.astype(np.float32) if finite else EMPTY,
-        width, height,
-        max(error, 0.0) if not math.isnan(error) else error,
-        int(result.iterations),
-        not failed and result.converged,
-        failed, reason if failed else "", warp_path,
-        0.0 if failed or not math.isfinite(result.confidence) else float(result.confidence),
+        width, height, failed, reason if failed else "", float(confidence),
+        warp_path if appearance is not None or warp_path != "none" else "none",
+        appearance,
     )
+
+
+def appearance_of(result: LandmarkFit, frame: ReferenceFrame | None) -> FitAppearance | None:
+    """The ``appearance`` of a fit's message: None for a fit without one (or with a
+    non-finite one)."""
+    if not isinstance(result, AAMFit) or frame is None:
+        return None
+    if not (np.all(np.isfinite(result.c)) and np.all(np.isfinite(result.residual))
+            and math.isfinite(result.error)):
+        return None
+    occluded = EMPTY_FLAGS if result.occluded is None else result.occluded.astype(np.uint8)
+    return FitAppearance(result.c.astype(np.float32),
+                         frame.to_image(result.residual.astype(np.float32)),
+                         max(float(result.error), 0.0), int(result.iterations),
+                         bool(result.converged), occluded)
 
 
 class FrameTracker:
     """Turns frame messages into fits, one per frame (landmarks smoothed if asked, as
     :meth:`aamcore.tracker.FaceTracker.smooth_landmarks` does)."""
 
-    def __init__(self, svc: Service, fitter: Fitter, warp_path: str,
+    def __init__(self, svc: Service, fitter: Fitter, warp: FitterWarp,
                  detector: ServiceDetector, smooth: bool) -> None:
         self.svc = svc
         self.scheme = fitter.aam.scheme.name
+        self.frame = fitter.aam.frame
         self.tracker = Tracker(fitter, detector)
         self.detector = detector
-        self.warp_path = warp_path
+        self.warp = warp
         self.smoother = LandmarkSmoother() if smooth else None
         self._run: str | None = None
         self._size: tuple[int, int] = (0, 0)
@@ -117,7 +137,9 @@ class FrameTracker:
             self.svc.reject("frame", exc.reason)
             return None
         self.detector.set_frame(image, got.payload)
+        self.warp.take_path()
         result = self.tracker.track(image)
+        warp_path = self.warp.take_path()
         if self.smoother is not None:
             if result is None:
                 self.smoother.reset()
@@ -125,8 +147,8 @@ class FrameTracker:
                 t = frame.header.media_time_ns / 1e9
                 # A copy: the tracker goes on from the raw fit, as the library's does.
                 result = replace(result, points=self.smoother.update(result.points, t, result.ok))
-        return fit_message(self.svc.header_for(frame), result, self.scheme, self.warp_path,
-                           self._size)
+        return fit_message(self.svc.header_for(frame), result, self.scheme, warp_path,
+                           self._size, self.frame)
 
     def reset(self) -> None:
         self.tracker.reset()
@@ -149,28 +171,38 @@ class FrameTracker:
         return True
 
 
-def warm_up(fitter: Fitter) -> None:
-    """Fit once on a blank frame so that the first real frame pays no set-up costs
-    (GL shaders and textures, first-call allocations)."""
+def warm_up(fitter: Fitter, warp: FitterWarp) -> None:
+    """Fit once on a blank frame, and warp it once where the fitter warps, so that the
+    first real frame pays no set-up costs (the GL context, shaders and textures,
+    first-call allocations); the warm-up's warps are not counted."""
     blank = np.full((480, 640, 3), 128, np.uint8)
+    box = np.array([220.0, 140.0, 200.0, 200.0])
     try:
-        fitter.fit_box(blank, np.array([220.0, 140.0, 200.0, 200.0]))
+        if fitter.warps:
+            warp.start()
+            start = fitter.mapping.place(box, "detector")
+            warp.warp(fitter.aam.prepare_image(blank, start), start)
+        fitter.fit_box(blank, box)
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
         logging.getLogger("aamtrack.fitter").debug("warm-up fit failed: %s", exc)
+    warp.counts = dict.fromkeys(warp.counts, 0)
+    warp.seconds = dict.fromkeys(warp.seconds, 0.0)
+    warp.take_path()
 
 
-def serve(svc: Service, fitter: Fitter, warp_path: str, opts: FitterOptions) -> None:
+def serve(svc: Service, fitter: Fitter, warp: FitterWarp, opts: FitterOptions) -> None:
     """Fit frames until stopped."""
     detector = ServiceDetector(svc, opts.detect_timeout, opts.local_for)
-    tracker = FrameTracker(svc, fitter, warp_path, detector, opts.smooth)
+    tracker = FrameTracker(svc, fitter, warp, detector, opts.smooth)
     frames = svc.messages("frame", capacity=opts.capacity, count_lost=True)
-    svc.ready(f"{fitter.name}, warp {warp_path}")
+    svc.ready(f"{fitter.name}, warp {warp.path}")
     for got in frames:
         fit = tracker.handle(got)
         if fit is not None:
             svc.publish(fit)
-        svc.set_state("running", f"{fitter.name}, warp {warp_path}; {detector.queries} "
-                      f"detector queries, {detector.local_detections} local detections")
+        svc.set_state("running", f"{fitter.name}, warp {warp.path}; {warp.summary()}; "
+                      f"{detector.queries} detector queries, {detector.local_detections} "
+                      "local detections")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -181,19 +213,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     opts: FitterOptions = args.options
     try:
         model = FittingModel.load(model_path(opts))
-        fitter_warp, warp_path = make_warp(model.aam, opts.warp)
+        warp = FitterWarp(model.aam, opts.warp)
+        fitter = Fitter.from_config(model, opts.config(), warp)
     except (OSError, ValueError, ModelFileError) as exc:
         log.error("cannot load the model: %s", exc)
         return 1
-    log.info("warp on the %s (%s)", warp_path, getattr(fitter_warp, "renderer", ""))
     try:
-        fitter = Fitter(model, opts.algorithm, warp=fitter_warp, failure_test=opts.failure_test,
-                        appearance=opts.appearance)
-        warm_up(fitter)
+        warm_up(fitter, warp)
+        log.info("warp on the %s (%s)", warp.path, warp.renderer or "nothing warps")
         with Service(NAME, args.bus) as svc:
-            serve(svc, fitter, warp_path, opts)
+            serve(svc, fitter, warp, opts)
     finally:
-        fitter_warp.close()
+        warp.close()
     return 0
 
 

@@ -18,6 +18,7 @@ def build_blueprint() -> rrb.Blueprint:
     top = rrb.Horizontal(
         rrb.Spatial2DView(origin=ent.CAMERA, name="Video, landmarks, boxes"),
         rrb.Spatial2DView(origin=ent.OVERLAY, name="AR overlay"),
+        rrb.Spatial2DView(origin=ent.RESIDUAL, name="AAM texture residual"),
         rrb.Spatial3DView(origin=ent.WORLD, name="Head pose"),
     )
     bottom = rrb.Horizontal(

@@ -20,6 +20,10 @@ from services.rerun_logger.images import DEFAULT_QUALITY, message_jpeg
 from services.rerun_logger.series import SeriesWriter
 
 BOX_COLOUR = (255, 200, 0)
+OCCLUDED_COLOUR = (255, 0, 255)
+"""Landmarks covered by something, RGB: magenta rings over their part's colour."""
+RESIDUAL_SCALE = 80.0
+"""Grey levels per unit of the texture residual |r| in the residual image (3 units: white)."""
 HEAD_AXIS_MM = 60.0
 """Length of the head's drawn axes, millimetres."""
 GLASSES_FRAME_COLOUR = (30, 30, 36)
@@ -106,9 +110,12 @@ class FitLogger:
 
     Landmarks go to :data:`entities.LANDMARKS`, each with the class of its
     facial part (coloured by part; a failed fit's all in the failed class of
-    its scheme; a fit without landmarks clears them); texture error, iterations and the
-    converged and failed flags go to ``series/fit/*``; a failure is also a
-    warning on :data:`entities.EVENTS`.
+    its scheme; a fit without landmarks clears them), the occluded ones again to
+    :data:`entities.OCCLUDED` (magenta); the appearance's texture residual, as
+    an image of ``|r|``, to :data:`entities.RESIDUAL`; texture error, iterations,
+    the converged and failed flags and the number of occluded landmarks go to
+    ``series/fit/*`` (the appearance's only for a fit with one); a failure is
+    also a warning on :data:`entities.EVENTS`.
     """
 
     def __init__(
@@ -129,9 +136,7 @@ class FitLogger:
                 ent.LANDMARKS,
                 rr.Points2D(msg.landmarks, class_ids=class_ids, keypoint_ids=np.arange(n)),
             )
-        self._series.scalar(f"{ent.FIT_SERIES}/texture_error", msg.texture_error)
-        self._series.scalar(f"{ent.FIT_SERIES}/iterations", msg.iterations)
-        self._series.scalar(f"{ent.FIT_SERIES}/converged", float(msg.converged))
+        self._log_appearance(msg)
         self._series.scalar(f"{ent.FIT_SERIES}/failed", float(msg.failed))
         if msg.failed:
             self._rec.log(
@@ -141,6 +146,23 @@ class FitLogger:
                     level=rr.TextLogLevel.WARN,
                 ),
             )
+
+    def _log_appearance(self, msg: Fit) -> None:
+        """The occluded landmarks, the residual image and the appearance's series (the
+        occluded landmarks and the image cleared for a fit without an appearance)."""
+        found = msg.appearance
+        flags = found.occluded.astype(bool) if found is not None else np.zeros(0, bool)
+        covered = msg.landmarks[flags] if len(flags) == len(msg.landmarks) else msg.landmarks[:0]
+        self._rec.log(ent.OCCLUDED, rr.Points2D(covered, colors=OCCLUDED_COLOUR, radii=4.0))
+        if found is None:
+            self._rec.log(ent.RESIDUAL, rr.Clear(recursive=False))
+            return
+        image = np.clip(np.abs(found.texture_residual) * RESIDUAL_SCALE, 0, 255)
+        self._rec.log(ent.RESIDUAL, rr.Image(image.astype(np.uint8)))
+        self._series.scalar(f"{ent.FIT_SERIES}/texture_error", found.texture_error)
+        self._series.scalar(f"{ent.FIT_SERIES}/iterations", found.iterations)
+        self._series.scalar(f"{ent.FIT_SERIES}/converged", float(found.converged))
+        self._series.scalar(f"{ent.FIT_SERIES}/occluded", float(flags.sum()))
 
 
 class PoseLogger:

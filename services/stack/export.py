@@ -38,8 +38,12 @@ def face_result(fit: Fit, pose: HeadPose | None, expression: Expression | None) 
     a, b, tx, ty = (float(v) for v in fit.similarity)
     scores = ({} if expression is None
               else dict(zip(expression.class_names, map(float, expression.scores), strict=True)))
+    found = fit.appearance
+    occluded = (np.asarray(found.occluded, bool) if found is not None
+                and len(found.occluded) == len(points) else None)
     common = dict(similarity=Similarity(a, b, tx, ty), reason=fit.failure_reason,
-                  expression=expression.label if expression else None, expression_scores=scores)
+                  expression=expression.label if expression else None, expression_scores=scores,
+                  occluded=occluded)
     confidence = float(fit.confidence)
     if pose is None:
         return FaceResult(h.frame_index, t, not fit.failed, confidence, points, **common)

@@ -104,11 +104,12 @@ def prepare_models(opts: StackOptions) -> StackOptions:
 
     The fitter's model is ``--model`` or the default one; the expression
     service gets the same model and its classifier (``--classifier`` or the
-    cached one, trained on first use; none when JAFFE cannot be had, and the
-    service then says why in its status). The fitter samples the appearance
-    only for a classifier that reads it.
+    cached one for the fitter's model, algorithm and the deployed features,
+    trained on first use; none when JAFFE cannot be had, and the service then
+    says why in its status).
     """
     from aamcore.io.sample import DatasetError
+    from aamcore.profiles import profile_named
     from services.fitter.service import model_path
 
     services = dict(opts.services)
@@ -124,28 +125,13 @@ def prepare_models(opts: StackOptions) -> StackOptions:
             from aamcore.expression.training import classifier_path
 
             try:
-                classifier = str(classifier_path(path))
+                features = profile_named(opts.launch.profile).expression
+                classifier = str(classifier_path(path, fitter.algorithm, features))
             except (DatasetError, OSError, ValueError) as exc:
                 log.warning("no expression classifier: %s", exc)
-        services["expression"] = expression.replace(model=path, classifier=classifier)
-    # Only a classifier of the appearance c reads it: not sampled for nobody.
-    wanted = expression is not None and _reads_appearance(services["expression"].classifier)
-    services["fitter"] = services["fitter"].replace(appearance=fitter.appearance and wanted)
+        services["expression"] = expression.replace(model=path, classifier=classifier,
+                                                    algorithm=fitter.algorithm)
     return replace(opts, services=services)
-
-
-def _reads_appearance(classifier: str) -> bool:
-    """Whether the classifier file ``classifier`` classifies the AAM appearance (an unreadable
-    one does not: the expression service refuses it and says why)."""
-    if not classifier:
-        return False
-    from aamcore.expression.classifier_file import ClassifierFileError, ExpressionClassifier
-
-    try:
-        loaded = ExpressionClassifier.load(classifier)
-    except (ClassifierFileError, OSError, ValueError):
-        return False
-    return "appearance" in loaded.pipeline.features.blocks
 
 
 def service_specs(opts: StackOptions, bus: BusOptions) -> list[ServiceSpec]:
@@ -319,7 +305,10 @@ def prepared(opts: StackOptions) -> StackOptions:
     preflight.check_outputs(opts)
     preflight.check_input(opts)
     preflight.check_models(opts)
-    return prepare_models(opts)
+    opts = prepare_models(opts)
+    # Now that the models are named: the classifier was made for the fits of these.
+    preflight.check_classifier(opts.services.get("expression"), opts.services.get("fitter"))
+    return opts
 
 
 def run_stack(opts: StackOptions) -> int:

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from aamcore.profiles import PROFILES, Profile, profile_named
 from services.bus.connection import BusOptions
 from services.bus.options import (
     OptionError,
@@ -28,7 +29,8 @@ from services.stack.registry import SERVICES
 
 RUN_OPTIONS: dict[str, tuple[str, ...] | None] = {
     "source": None,
-    "fitter": ("model", "model_limit", "model_images", "algorithm", "failure_test", "warp"),
+    "fitter": ("model", "model_limit", "model_images", "model_update", "algorithm",
+               "failure_test", "appearance", "occlusion", "refine", "refine_with", "warp"),
     "pose": ("fov", "calibration", "estimator"),
     "expression": ("classifier",),
     "rerun": ("rrd", "serve", "viewer"),
@@ -50,6 +52,11 @@ ALWAYS = ("detector", "fitter", "pose", "expression")
 class LaunchOptions(Options):
     """The launcher's own options."""
 
+    profile: str = option("default", "the pipeline: default (local-binary landmarks, the AAM's "
+                          "appearance and occlusion flags, contour pose, HOG + shape "
+                          "expression) or thesis (fixed-Jacobian AAM, eq. 7.2, POSIT, LDA + "
+                          "Mahalanobis on c); options given beside it override its choices",
+                          choices=tuple(PROFILES))
     stream: str = option("cam0", "stream id")
     endpoint: str | None = option(None, "zenoh endpoint the stack listens on, for other "
                                   "programs to connect to (default: a Unix socket only this "
@@ -139,8 +146,10 @@ def stack_options(args: argparse.Namespace, base: StackOptions | None = None) ->
     """
     base = base or StackOptions()
     launch = options_from(LaunchOptions, args, base=base.launch)
+    profile = profile_named(launch.profile)
     every = {name: options_from(info.options, args, RUN_OPTIONS.get(name, ()),
-                                base=base.services.get(name), flags=RUN_FLAGS.get(name))
+                                base=profiled(name, base.services.get(name), profile),
+                                flags=RUN_FLAGS.get(name))
              for name, info in SERVICES.items()}
     if base.services:
         names = list(base.services)
@@ -157,6 +166,21 @@ def stack_options(args: argparse.Namespace, base: StackOptions | None = None) ->
     extra = {**base.extra, **extra_args(getattr(args, "set", []) or [])}
     return StackOptions(launch, services, extra, bool(getattr(args, "verbose", False)),
                         base.bus, base.wait_for)
+
+
+def profiled(name: str, options: Options | None, profile: Profile) -> Options:
+    """Service ``name``'s options (its defaults, or a stack file's) with ``profile``'s
+    choices; the command line's go over them."""
+    options = options or SERVICES[name].options()
+    fit = profile.fitter
+    choices = {
+        "fitter": {"algorithm": fit.algorithm, "failure_test": fit.failure_test,
+                   "appearance": fit.appearance, "occlusion": fit.occlusion,
+                   "refine": fit.refine, "refine_with": fit.refine_with,
+                   "model_update": profile.update_method},
+        "pose": {"estimator": profile.pose_estimator},
+    }.get(name, {})
+    return options.replace(**choices) if profile.name != "default" else options
 
 
 FAST_CAPACITY = 1024

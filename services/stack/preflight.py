@@ -107,11 +107,16 @@ def check_models(opts: StackOptions) -> None:
 
     fitter = opts.services.get("fitter")
     if fitter is not None and fitter.model:
+        from aamcore.fitting.algorithm import missing_part
+
         try:
-            FittingModel.load(fitter.model)
+            model = FittingModel.load(fitter.model)
         except ModelFileError as exc:
             raise PreflightError(f"--model: {exc}") from None
-    _check_classifier(opts.services.get("expression"))
+        why = missing_part(model, fitter.algorithm)
+        if why:
+            raise PreflightError(f"--model {fitter.model}: {why}")
+    check_classifier(opts.services.get("expression"), fitter)
     pose = opts.services.get("pose")
     if pose is not None:
         from aamcore.pose import IntrinsicsError, PoseError
@@ -127,16 +132,20 @@ def check_models(opts: StackOptions) -> None:
             raise PreflightError(f"pose: {exc}") from None
 
 
-def _check_classifier(expression: Any) -> None:
+def check_classifier(expression: Any, fitter: Any) -> None:
+    """The classifier loads and was made for the fits of the fitter's model and algorithm."""
     if expression is None or not expression.classifier:
         return
     from aamcore.expression import AAMMismatchError, ClassifierFileError, ExpressionClassifier
-    from aamcore.expression.training import model_fingerprint
+    from aamcore.expression.training import check_made_for, model_fingerprint
 
     try:
         classifier = ExpressionClassifier.load(expression.classifier)
-        if expression.model:
-            classifier.check_aam(model_fingerprint(expression.model))
+        model = expression.model or (fitter.model if fitter is not None else None)
+        if model and fitter is not None:
+            check_made_for(classifier, model_fingerprint(model), fitter.algorithm)
+        elif model:
+            classifier.check_aam(model_fingerprint(model))
     except (ClassifierFileError, AAMMismatchError, OSError) as exc:
         raise PreflightError(f"--classifier: {exc}") from None
 

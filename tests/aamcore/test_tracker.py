@@ -56,11 +56,16 @@ def test_every_frame_of_a_face_video_has_landmarks_pose_and_expression(
     assert json.loads(json.dumps(results[-1].to_dict()))["expression"] == results[-1].expression
 
 
-def test_a_classifier_of_another_model_is_refused(model_path: Path, classifier_path: Path
-                                                  ) -> None:
-    other = replace(ExpressionClassifier.load(classifier_path), aam_fingerprint="0123456789abcdef")
-    with pytest.raises(AAMMismatchError, match="retrain it for this AAM"):
+def test_a_classifier_made_for_other_fits_is_refused(model_path: Path, classifier_path: Path
+                                                     ) -> None:
+    made = ExpressionClassifier.load(classifier_path)
+    other = replace(made, aam_fingerprint="0123456789abcdef")
+    with pytest.raises(AAMMismatchError, match="made for the fits of model 0123456789abcdef by "
+                       "local-binary, not for those of model [0-9a-f]{16} by local-binary"):
         FaceTracker(model_path, other)
+    with pytest.raises(AAMMismatchError, match="by local-binary, not for those of model "
+                       "[0-9a-f]{16} by fixed-jacobian"):
+        FaceTracker(model_path, made, algorithm="fixed-jacobian")
     blank = FaceTracker(model_path, classifier_path).process(np.full((360, 640, 3), 90, np.uint8))
     assert blank.expression is None and blank.expression_reason == "no face"
 
@@ -77,6 +82,14 @@ def test_smoothing_reduces_the_frame_to_frame_jitter(
 
     assert jitter(smooth) < 0.75 * jitter(results)
     assert smooth[0].expression is None  # no classifier given
+
+
+def test_good_fits_carry_occlusion_flags(results: list[FaceResult]) -> None:
+    good = [r for r in results if r.success]
+    assert good and all(r.occluded is not None and r.occluded.shape == (68,) for r in good)
+    # a talking face in front of a webcam: most landmarks of most frames are in sight
+    assert np.mean([r.occluded.mean() for r in good]) < 0.5
+    assert all(r.occluded is None for r in results if not r.success)
 
 
 def test_a_frame_without_a_face_and_a_bad_video(model_path: Path, tmp_path: Path) -> None:

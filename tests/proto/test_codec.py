@@ -25,6 +25,7 @@ from proto.messages import (
     Expression,
     FaceBoxes,
     Fit,
+    FitAppearance,
     Frame,
     Message,
     Status,
@@ -48,6 +49,8 @@ def reason_of(payload: bytes, expected_kind: str | None = None) -> str:
 
 def fit_with(golden: dict[str, Message], **body: object) -> bytes:
     obj = unpack(encode(golden["fit"]))
+    appearance = {k: body.pop(k) for k in list(body) if k in obj["body"]["appearance"]}
+    obj["body"]["appearance"].update(appearance)
     obj["body"].update(body)
     return pack(obj)
 
@@ -69,13 +72,15 @@ def test_trailing_bytes_are_rejected(golden: dict[str, Message]) -> None:
 @pytest.mark.parametrize(
     ("body", "reason"),
     [
-        ({"iterations": "7"}, "fit.iterations: expected an integer, got str"),
-        ({"iterations": 7.0}, "fit.iterations: expected an integer, got float"),
-        ({"converged": 1}, "fit.converged: expected a boolean, got int"),
+        ({"iterations": "7"}, "fit.appearance.iterations: expected an integer, got str"),
+        ({"iterations": 7.0}, "fit.appearance.iterations: expected an integer, got float"),
+        ({"converged": 1}, "fit.appearance.converged: expected a boolean, got int"),
         ({"scheme": b"ibug68"}, "fit.scheme: expected a string, got bytes"),
-        ({"texture_error": None}, "fit.texture_error: expected a number, got NoneType"),
+        ({"texture_error": None},
+         "fit.appearance.texture_error: expected a number, got NoneType"),
         ({"landmarks": [[1.0, 2.0]]}, "fit.landmarks: expected an array map, got list"),
-        ({"warp_path": "tpu"}, "fit.warp_path: 'tpu' is not one of ['gpu', 'cpu']"),
+        ({"warp_path": "tpu"}, "fit.warp_path: 'tpu' is not one of ['gpu', 'cpu', 'none']"),
+        ({"appearance": [1]}, "fit.appearance: expected a map, got list"),
     ],
 )
 def test_wrong_types_are_named(golden: dict[str, Message], body: dict, reason: str) -> None:
@@ -89,6 +94,9 @@ def test_missing_and_unknown_fields_are_named(golden: dict[str, Message]) -> Non
     obj = unpack(encode(golden["fit"]))
     obj["body"]["extra"] = 1
     assert reason_of(pack(obj)) == "fit: unknown field 'extra'"
+    obj = unpack(encode(golden["fit"]))
+    del obj["body"]["appearance"]["occluded"]
+    assert reason_of(pack(obj)) == "fit.appearance: missing field 'occluded'"
     obj = unpack(encode(golden["fit"]))
     del obj["header"]["producer"]
     assert reason_of(pack(obj)) == "header: missing field 'producer'"
@@ -188,8 +196,9 @@ def largest_messages() -> list[Message]:
         Frame.from_array(header, np.zeros((2160, 4096, 3), np.uint8)),
         FaceBoxes(header, 4096, 4096, np.zeros((MAX_DIM, 4)), side),
         Fit(
-            header, text, np.zeros((MAX_DIM, 2)), side, np.ones(4), 4096, 4096, 1.0, MAX_INT, True,
-            True, text, "cpu", 1.0,
+            header, text, np.zeros((MAX_DIM, 2)), np.ones(4), 4096, 4096, True, text, 1.0, "cpu",
+            FitAppearance(side, np.zeros((128, 512)), 1.0, MAX_INT, True,
+                          np.ones(MAX_DIM, np.uint8)),
         ),
         Expression(header, names[0], names, np.zeros(MAX_LIST_LEN), smoothed=True),
         Status(header, "s" * 64, "running", *[MAX_INT] * 7, 1.0, 1.0, MAX_INT, text),

@@ -52,12 +52,16 @@ def test_every_kind_round_trips_through_its_dict_and_the_codec(
 def test_messages_are_frozen_and_compare_by_wire_content(golden: dict[str, Message]) -> None:
     fit = golden["fit"]
     with pytest.raises(dataclasses.FrozenInstanceError):
-        fit.iterations = 3  # type: ignore[misc]
-    assert fit != dataclasses.replace(fit, iterations=8)
+        fit.confidence = 0.5  # type: ignore[misc]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        fit.appearance.iterations = 3  # type: ignore[misc,union-attr]
+    assert fit != dataclasses.replace(
+        fit, appearance=dataclasses.replace(fit.appearance, iterations=8))
     moved = dataclasses.replace(fit, landmarks=fit.landmarks + 1)
     assert fit != moved
-    failed = dataclasses.replace(fit, texture_error=math.nan, failed=True, failure_reason="lost")
-    assert failed == decode(encode(failed))
+    failed = dataclasses.replace(fit, appearance=None, warp_path="none", failed=True,
+                                 failure_reason="lost")
+    assert failed == decode(encode(failed)) and decode(encode(failed)).appearance is None
     with pytest.raises(TypeError):
         hash(fit)
 
@@ -119,8 +123,23 @@ def test_fit_rules(golden: dict[str, Message]) -> None:
         dataclasses.replace(fit, failure_reason="drifted")
     with pytest.raises(ProtoError, match="'fpga' is not one of"):
         dataclasses.replace(fit, warp_path="fpga")
-    with pytest.raises(ProtoError, match="fit.texture_error: -1.0 is outside"):
-        dataclasses.replace(fit, texture_error=-1.0)
+    with pytest.raises(ProtoError, match="fit.appearance.texture_error: -1.0 is outside"):
+        dataclasses.replace(fit.appearance, texture_error=-1.0)
+    with pytest.raises(ProtoError, match="fit.appearance.texture_error: NaN is not allowed"):
+        dataclasses.replace(fit.appearance, texture_error=math.nan)
+    with pytest.raises(ProtoError, match="an appearance needs landmarks and a warp_path"):
+        dataclasses.replace(fit, warp_path="none")
+    with pytest.raises(ProtoError, match="an appearance needs landmarks"):
+        dataclasses.replace(fit, landmarks=np.zeros((0, 2)))
+    with pytest.raises(ProtoError, match="3 flags for 68 landmarks"):
+        dataclasses.replace(fit, appearance=dataclasses.replace(
+            fit.appearance, occluded=np.ones(3, np.uint8)))
+    with pytest.raises(ProtoError, match="occluded: values must be 0 or 1"):
+        dataclasses.replace(fit.appearance, occluded=np.full(68, 2, np.uint8))
+    with pytest.raises(ProtoError, match="expected FitAppearance or None"):
+        dataclasses.replace(fit, appearance={"c": [1.0]})
+    assert dataclasses.replace(fit, appearance=None).c is None
+    np.testing.assert_array_equal(fit.c, fit.appearance.c)
     with pytest.raises(ProtoError, match="fit.landmarks: 1 NaN"):
         dataclasses.replace(fit, landmarks=np.where(np.eye(68, 2, k=1) > 0, np.nan, fit.landmarks))
 

@@ -205,7 +205,8 @@ def _edge_messages() -> list[Message]:
         | {
             "landmarks": np.zeros((0, 2)),
             "similarity": np.zeros(0),
-            "texture_error": math.nan,
+            "appearance": None,
+            "warp_path": "none",
             "failed": True,
             "failure_reason": "lost",
         },

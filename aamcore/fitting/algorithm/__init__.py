@@ -33,6 +33,32 @@ ALGORITHMS: dict[str, str] = {
     "project-out-ic": f"{_PACKAGE}.project_out_ic:ProjectOutInverseCompositional",
 }
 """Algorithm name -> ``module:Class``."""
+REGRESSORS = ("local-binary",)
+"""The landmark regressors: they return a :class:`~aamcore.fitting.result.LandmarkFit`,
+without the AAM's appearance; every other method fits the AAM and returns an
+:class:`~aamcore.fitting.result.AAMFit`."""
+
+
+NEEDS: dict[str, tuple[str, str]] = {
+    "local-binary": ("binary", "local-binary cascade"),
+    "supervised-descent": ("cascade", "supervised-descent cascade"),
+    "fixed-jacobian": ("updates", "update matrix"),
+    "multi-resolution": ("updates", "update matrices"),
+    "project-out-ic": ("", ""),
+}
+"""Algorithm name -> the part of the fitting model it reads (an attribute of
+:class:`~aamcore.fitting.model.FittingModel`) and what that part is called."""
+
+
+def missing_part(model: FittingModel, name: str) -> str:
+    """Why ``model`` cannot be fitted by the algorithm ``name`` (one line), or ``""``."""
+    if name not in ALGORITHMS:
+        return f"unknown fitting algorithm {name!r}: choose one of {list(ALGORITHMS)}"
+    part, called = NEEDS[name]
+    if part and not getattr(model, part):
+        return (f"this model has no {called}, which {name} needs: train it with "
+                "`aamtrack train --fit` (or `aamtrack model prepare`)")
+    return ""
 
 
 def algorithm_class(name: str) -> type[Algorithm]:

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aamcore.fitting.algorithm.base import AlgorithmSettings, ModelAlgorithm
-from aamcore.fitting.result import FitResult
+from aamcore.fitting.result import AAMFit, LandmarkFit
 from aamcore.fitting.training.update import UpdateMatrix
 from aamcore.model.aam import AAM
 from aamcore.model.similarity import Similarity
@@ -59,11 +59,20 @@ class FixedJacobian(ModelAlgorithm):
         undo = Similarity.from_params(alpha * dp[self.n_c :]).inverse()
         return c_new, (Similarity.from_params(t) @ undo).params
 
-    def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
-        """Fit from the previous frame's parameters."""
-        return self.run(image, previous.c, previous.similarity)
+    def track(self, image: np.ndarray, previous: LandmarkFit) -> AAMFit:
+        """Fit from the previous frame's parameters (its shape's, for a fit without an
+        appearance)."""
+        if isinstance(previous, AAMFit) and previous.c.size == self.n_c:
+            return self.run(image, previous.c, previous.similarity)
+        return self.run_from_shape(image, previous.points)
 
-    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> FitResult:
+    def run_from_shape(self, image: np.ndarray, shape: np.ndarray) -> AAMFit:
+        """Fit from landmarks ``shape`` (N, 2): their shape parameters, the mean texture."""
+        b, sim = self.aam.shape.fit_points(shape, iterations=2)
+        c0 = self.aam.combined.params(b, np.zeros(self.aam.texture.n_modes))
+        return self.run(image, c0, sim)
+
+    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> AAMFit:
         """Fit from ``(c0, start)`` on a prepared ``image``."""
         c, t = c0.astype(np.float64).copy(), start.params
         r, error = self.residual(image, c, t)
@@ -86,7 +95,6 @@ class FixedJacobian(ModelAlgorithm):
             if not improved:
                 converged = True
                 break
-        points = self.residual.shape(c, t)
-        reason = self.failure(c, points)
-        return FitResult(points, c, Similarity.from_params(t), error, iterations, converged,
-                         bool(reason), reason, seconds, errors)
+        return self.result(self.residual.shape(c, t), c, Similarity.from_params(t), r,
+                           iterations=iterations, converged=converged, errors=errors,
+                           seconds=seconds)

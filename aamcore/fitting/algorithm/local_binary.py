@@ -10,27 +10,29 @@ the last fern stage. One more fern stage regresses the fit's ``log(NME)`` (its
 quality score); above the model's calibrated threshold the fit has failed.
 
 The method reads the grey pixels of the face's region only (converted once per
-frame) and computes no AAM appearance ``c`` (its ``FitResult.c`` is ``(0,)``;
-:class:`~aamcore.fitting.fitter.Fitter` samples it where asked).
+frame) and computes no AAM appearance: it returns a
+:class:`~aamcore.fitting.result.LandmarkFit` with its quality score, and the
+:class:`~aamcore.fitting.fitter.Fitter` applies the threshold (and samples the
+appearance where asked). What it learned is a
+:class:`~aamcore.fitting.learned.BinaryCascade`.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
 from aamcore.detection.haar import to_grey_uint8
 from aamcore.fitting.algorithm.base import AlgorithmSettings
-from aamcore.fitting.algorithm.ferns import FernRunner, FernStage
-from aamcore.fitting.algorithm.local_hog import HogStage, LandmarkHog
-from aamcore.fitting.failure import QualityTest
-from aamcore.fitting.result import FitResult
-from aamcore.fitting.shape_space import ShapeSpace
+from aamcore.fitting.algorithm.ferns import FernRunner
+from aamcore.fitting.algorithm.local_hog import LandmarkHog
+from aamcore.fitting.learned import BinaryCascade
+from aamcore.fitting.result import LandmarkFit
 from aamcore.model.aam import AAM
 from aamcore.model.similarity import Similarity
 
@@ -42,70 +44,6 @@ MIN_CONTRAST = 8
 a black, blank or saturated region holds no face."""
 MARGIN = 1.1
 """Region read around the shape, in stage radii (pixel pairs lie within a radius)."""
-
-
-@dataclass(frozen=True)
-class BinaryCascade:
-    """What the local-binary method learned.
-
-    Attributes
-    ----------
-    space : ShapeSpace
-    coarse : list of HogStage
-        Run from a detection start, before ``tracking``.
-    tracking : list of FernStage
-        Run from a detection after ``coarse``, and from the previous frame's landmarks.
-    quality : FernStage
-        Its output (1,) is the predicted ``log(NME)`` of the landmarks it is given.
-    threshold : float
-        A fit whose quality score is above it has failed.
-    report : dict
-        How it was trained (JSON-ready).
-    """
-
-    space: ShapeSpace
-    coarse: list[HogStage]
-    tracking: list[FernStage]
-    quality: FernStage
-    threshold: float
-    report: dict[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        if not self.tracking:
-            raise ValueError("a local-binary cascade needs at least one fern stage")
-        q = self.space.basis.shape[1]
-        for k, stage in enumerate(self.tracking):
-            if stage.bias.shape != (q,) or stage.n_points != self.space.n_points:
-                raise ValueError(f"fern stage {k} does not fit the shape space ({q} directions, "
-                                 f"{self.space.n_points} points)")
-        if self.quality.bias.shape != (1,) or not math.isfinite(self.threshold):
-            raise ValueError("the quality stage must give one score and the threshold be finite")
-
-    def arrays(self, prefix: str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        """The JSON header and the named arrays of the cascade, for a model file."""
-        arrays = self.space.arrays(f"{prefix}_space")
-        for k, stage in enumerate(self.coarse):
-            arrays.update(stage.arrays(f"{prefix}_coarse{k}"))
-        for k, stage in enumerate(self.tracking):
-            arrays.update(stage.arrays(f"{prefix}_fern{k}"))
-        arrays.update(self.quality.arrays(f"{prefix}_quality"))
-        header = {"coarse": len(self.coarse), "tracking": len(self.tracking),
-                  "threshold": self.threshold, "report": self.report}
-        return header, arrays
-
-    @classmethod
-    def from_arrays(cls, header: dict[str, Any], arrays: dict[str, np.ndarray], prefix: str
-                    ) -> BinaryCascade:
-        """The cascade written by :meth:`arrays`."""
-        return cls(
-            ShapeSpace.from_arrays(arrays, f"{prefix}_space"),
-            [HogStage.from_arrays(arrays, f"{prefix}_coarse{k}")
-             for k in range(int(header["coarse"]))],
-            [FernStage.from_arrays(arrays, f"{prefix}_fern{k}")
-             for k in range(int(header["tracking"]))],
-            FernStage.from_arrays(arrays, f"{prefix}_quality"),
-            float(header["threshold"]), dict(header.get("report", {})),
-        )
 
 
 @dataclass
@@ -128,22 +66,18 @@ class LocalBinary:
         Its mean shape gives the results' similarity (the AAM's model frame)
         and the start shape of :meth:`run`; the cascade's mean shape without one.
     settings : AlgorithmSettings, optional
-        With a failure test other than ``quality`` the cascade's threshold is
-        not applied (the fitter then tests the appearance it samples).
+        Nothing in them changes this method (it warps nothing and iterates no more
+        than its stages).
     """
 
     name = "local-binary"
-    computes_appearance = False
 
     def __init__(self, cascade: BinaryCascade, aam: AAM | None = None,
                  settings: AlgorithmSettings | None = None) -> None:
-        settings = settings or AlgorithmSettings()
         self.cascade = cascade
         self.aam = aam
         space = cascade.space
         self.space = space
-        self.test = QualityTest(cascade.threshold)
-        self.apply_threshold = settings.failure is None or settings.failure.kind == "quality"
         self._sim = self._similarity_matrix(space.mean)
         self._frame = aam.shape.mean_shape if aam is not None else space.mean
         self._frame_sim = self._similarity_matrix(self._frame)
@@ -187,7 +121,7 @@ class LocalBinary:
             return image
         return to_grey_uint8(image)
 
-    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> FitResult:
+    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> LandmarkFit:
         """Fit from the mean shape of ``(c0, start)`` (the AAM's, if the model has one)."""
         if self.aam is not None:
             shape = self.aam.shape_instance(c0, start)
@@ -195,11 +129,11 @@ class LocalBinary:
             shape = start.apply(self._frame)
         return self.fit_shape(image, shape)
 
-    def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
+    def track(self, image: np.ndarray, previous: LandmarkFit) -> LandmarkFit:
         """Fit from the previous frame's landmarks with the fern stages."""
         return self.track_points(image, previous.points)
 
-    def fit_shape(self, image: np.ndarray, start: np.ndarray) -> FitResult:
+    def fit_shape(self, image: np.ndarray, start: np.ndarray) -> LandmarkFit:
         """Fit from a start shape (N, 2) on a detection: coarse stages, then the fern stages."""
         start = np.asarray(start, np.float64)
         if not np.all(np.isfinite(start)):
@@ -214,7 +148,7 @@ class LocalBinary:
             seconds.append(time.perf_counter() - begun)
         return self._fern_fit(image, shape, seconds)
 
-    def track_points(self, image: np.ndarray, previous: np.ndarray) -> FitResult:
+    def track_points(self, image: np.ndarray, previous: np.ndarray) -> LandmarkFit:
         """Fit from landmarks (N, 2) of the previous frame with the fern stages."""
         previous = np.asarray(previous, np.float64)
         if not np.all(np.isfinite(previous)):
@@ -266,7 +200,7 @@ class LocalBinary:
         return np.array([[a, -b], [b, a]])
 
     def _fern_fit(self, image: np.ndarray, shape: np.ndarray, seconds: list[float]
-                  ) -> FitResult:
+                  ) -> LandmarkFit:
         """The fern stages from ``shape`` (N, 2), projection, quality score, result."""
         region = self.region(image, shape)
         if region is None:
@@ -300,21 +234,17 @@ class LocalBinary:
         return Similarity(a, b, cx, cy)
 
     def _result(self, points: np.ndarray, seconds: list[float], score: float, contrast: int
-                ) -> FitResult:
+                ) -> LandmarkFit:
         reason = ""
         if not np.all(np.isfinite(points)):
             reason = "non-finite shape"
         elif contrast < MIN_CONTRAST:
             reason = f"no contrast around the landmarks ({contrast} grey levels)"
-        elif self.apply_threshold:
-            reason = self.test.reason(score)
         similarity = self._similarity(points) if not reason.startswith("non") else Similarity()
-        confidence = 0.0 if reason else self.test.confidence(score)
-        return FitResult(points, np.zeros(0), similarity, math.nan, len(seconds), True,
-                         bool(reason), reason, seconds, [], confidence, score)
+        return LandmarkFit(points, similarity, bool(reason), reason,
+                           0.0 if reason else math.nan, score, seconds)
 
     def _failed(self, shape: np.ndarray, reason: str, seconds: list[float] | None = None
-                ) -> FitResult:
-        return FitResult(np.asarray(shape, np.float64), np.zeros(0), Similarity(), math.nan,
-                         len(seconds or []), False, True, reason, seconds or [], [], 0.0,
-                         math.inf)
+                ) -> LandmarkFit:
+        return LandmarkFit(np.asarray(shape, np.float64), Similarity(), True, reason, 0.0,
+                           math.inf, seconds or [])

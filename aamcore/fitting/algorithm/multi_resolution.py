@@ -17,7 +17,7 @@ import numpy as np
 from aamcore.fitting.algorithm.base import AlgorithmSettings
 from aamcore.fitting.algorithm.fixed_jacobian import FixedJacobian
 from aamcore.fitting.pyramid import pyramid
-from aamcore.fitting.result import FitResult
+from aamcore.fitting.result import AAMFit, LandmarkFit
 from aamcore.model.similarity import Similarity
 
 if TYPE_CHECKING:
@@ -44,8 +44,6 @@ class MultiResolution:
         ``levels[l]`` fits images halved ``l`` times.
     """
 
-    computes_appearance = True
-
     def __init__(self, levels: list[FixedJacobian]) -> None:
         if not levels:
             raise ValueError("a multi-resolution fitter needs at least one level")
@@ -62,11 +60,11 @@ class MultiResolution:
         """As the full-resolution level prepares it."""
         return self.levels[0].prepare(image, shape)
 
-    def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
+    def track(self, image: np.ndarray, previous: LandmarkFit) -> AAMFit:
         """Fit from the previous frame's fit, at full resolution only."""
         return self.levels[0].track(image, previous)
 
-    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> FitResult:
+    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> AAMFit:
         """Fit from ``(c0, start)``, given in full-image pixels."""
         images = pyramid(image, len(self.levels))
         c, sim = c0, start
@@ -78,7 +76,7 @@ class MultiResolution:
             factor = 0.5**level
             result = self.levels[level].run(images[level], c, scale_similarity(sim, factor))
             c, sim = result.c, scale_similarity(result.similarity, 1.0 / factor)
-            seconds += result.iteration_seconds
+            seconds += result.seconds
             errors += result.errors
             iterations += result.iterations
         assert result is not None
@@ -88,9 +86,9 @@ class MultiResolution:
             # full-resolution fit from the start itself when it explains the
             # image better.
             direct = self.levels[0].run(image, c0, start)
-            seconds += direct.iteration_seconds
+            seconds += direct.seconds
             iterations += direct.iterations
             if direct.error < result.error:
                 result = direct
-        result.iteration_seconds, result.errors, result.iterations = seconds, errors, iterations
+        result.seconds, result.errors, result.iterations = seconds, errors, iterations
         return result

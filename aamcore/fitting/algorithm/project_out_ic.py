@@ -19,7 +19,7 @@ import numpy as np
 from scipy import ndimage
 
 from aamcore.fitting.algorithm.base import AlgorithmSettings, ModelAlgorithm
-from aamcore.fitting.result import FitResult
+from aamcore.fitting.result import AAMFit, LandmarkFit
 from aamcore.model.aam import AAM
 from aamcore.model.similarity import Similarity
 
@@ -124,15 +124,15 @@ class ProjectOutInverseCompositional(ModelAlgorithm):
             out[v] = (a[:, :, :2] @ moved[v] + a[:, :, 2]).mean(axis=0)
         return out
 
-    def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
+    def track(self, image: np.ndarray, previous: LandmarkFit) -> AAMFit:
         """Fit from the previous frame's landmarks."""
         return self.run_from_shape(image, previous.points)
 
-    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> FitResult:
+    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> AAMFit:
         """Fit from the shape of ``(c0, start)`` on a prepared ``image``."""
         return self.run_from_shape(image, self.residual.shape(c0, start.params))
 
-    def run_from_shape(self, image: np.ndarray, shape: np.ndarray) -> FitResult:
+    def run_from_shape(self, image: np.ndarray, shape: np.ndarray) -> AAMFit:
         """Fit from a start ``shape`` (N, 2) on a prepared ``image``."""
         shape_model = self.aam.shape
         b, sim = shape_model.fit_points(shape)
@@ -162,7 +162,6 @@ class ProjectOutInverseCompositional(ModelAlgorithm):
         error, shape, b, sim = best
         g = self.residual.image_texture(image, shape)
         c = self.aam.combined.params(b, self.aam.texture.params(g.astype(np.float64)))
-        points = shape
-        reason = self.failure(c, points)
-        return FitResult(points, c, sim, error, iterations, converged, bool(reason), reason,
-                         seconds, errors)
+        return self.result(shape, c, sim, g - self.residual.model_texture(c),
+                           iterations=iterations, converged=converged, errors=errors,
+                           seconds=seconds)

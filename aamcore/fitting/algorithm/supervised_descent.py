@@ -14,7 +14,6 @@ orthonormal basis of similarity directions and shape modes used by
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -22,28 +21,13 @@ import numpy as np
 from aamcore.fitting.algorithm.base import AlgorithmSettings, ModelAlgorithm
 from aamcore.fitting.algorithm.project_out_ic import shape_basis
 from aamcore.fitting.features import FrameHog
-from aamcore.fitting.result import FitResult
+from aamcore.fitting.learned import DescentCascade
+from aamcore.fitting.result import AAMFit, LandmarkFit
 from aamcore.model.aam import AAM
 from aamcore.model.similarity import Similarity
 
 if TYPE_CHECKING:
     from aamcore.fitting.model import FittingModel
-
-
-@dataclass(frozen=True)
-class DescentCascade:
-    """The learned stages.
-
-    Attributes
-    ----------
-    weights : list of (D + 1, Q) float32 arrays
-        One regression per stage, the last row the bias.
-    hog_cell : int
-        HOG cell size used for the features.
-    """
-
-    weights: list[np.ndarray]
-    hog_cell: int
 
 
 def model_frame_step(
@@ -103,7 +87,7 @@ class SupervisedDescent(ModelAlgorithm):
         model = similarity.inverse().apply(shape) + (self.basis @ dq).reshape(-1, 2)
         return similarity.apply(model)
 
-    def track(self, image: np.ndarray, previous: FitResult) -> FitResult:
+    def track(self, image: np.ndarray, previous: LandmarkFit) -> AAMFit:
         """Fit from the pose of the previous frame's fit.
 
         The mean shape placed where the previous landmarks were is the kind
@@ -113,7 +97,7 @@ class SupervisedDescent(ModelAlgorithm):
         _, sim = self.aam.shape.fit_points(previous.points, iterations=1)
         return self.run(image, np.zeros(self.aam.n_appearance), sim)
 
-    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> FitResult:
+    def run(self, image: np.ndarray, c0: np.ndarray, start: Similarity) -> AAMFit:
         """Fit from the shape of ``(c0, start)`` on a prepared ``image``."""
         shape_model = self.aam.shape
         shape = self.residual.shape(c0, start.params)
@@ -121,8 +105,22 @@ class SupervisedDescent(ModelAlgorithm):
             b, sim = shape_model.fit_points(shape, iterations=2)
         else:  # the mean shape placed by the start: nothing to fit
             b, sim = np.zeros(shape_model.n_modes), start
+        return self._descend(image, shape, b, sim, 0)
+
+    def refine(self, image: np.ndarray, points: np.ndarray, stages: int) -> AAMFit:
+        """The last ``stages`` stages of the cascade from landmarks ``points`` (N, 2) on a
+        prepared ``image`` (the fine stages, for landmarks already near the face's)."""
+        b, sim = self.aam.shape.fit_points(points, iterations=2)
+        shape = sim.apply(self.aam.shape.instance(b))
+        return self._descend(image, shape, b, sim, max(len(self.weights) - stages, 0))
+
+    def _descend(self, image: np.ndarray, shape: np.ndarray, b: np.ndarray, sim: Similarity,
+                 first: int) -> AAMFit:
+        """The stages from ``first`` on, from ``shape`` (shape parameters ``b`` placed by
+        ``sim``), then the appearance at the shape reached."""
+        shape_model = self.aam.shape
         seconds = []
-        for stage in range(len(self.weights)):
+        for stage in range(first, len(self.weights)):
             begun = time.perf_counter()
             target = self.step(image, shape, sim, stage)
             if not np.all(np.isfinite(target)):
@@ -131,11 +129,9 @@ class SupervisedDescent(ModelAlgorithm):
             shape = sim.apply(shape_model.instance(b))
             seconds.append(time.perf_counter() - begun)
         g = self.residual.image_texture(image, shape)
-        centred = g - self.texture_mean
-        b_g = centred @ self.texture_components
+        b_g = (g - self.texture_mean) @ self.texture_components
         c = self.aam.combined.params(b, b_g.astype(np.float64))
-        # The texture model's residual: its components are orthonormal.
-        error = max(float(centred @ centred - b_g @ b_g), 0.0) / g.size
-        reason = self.failure(c, shape)
-        return FitResult(shape, c, sim, error, len(seconds), True, bool(reason), reason, seconds,
-                         [error])
+        fit = self.result(shape, c, sim, g - self.residual.model_texture(c),
+                          iterations=len(seconds), seconds=seconds)
+        fit.errors = [fit.error]
+        return fit

@@ -4,13 +4,15 @@ The default model (:func:`default_model_path`) is trained on the training
 splits of LFPW, HELEN and AFW (:data:`aamcore.defaults.MODEL_DATASET`) with
 their mirror images: the local-binary cascade on every face, the AAM and what
 the AAM methods learn on a subset (:data:`aamcore.defaults.MODEL_AAM_IMAGES`),
-so that it trains in a few minutes on two cores.
+the occlusion test on faces outside that subset, so that it trains in a few
+minutes on two cores.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +31,7 @@ from aamcore.fitting.training.data import (
 )
 from aamcore.fitting.training.descent import train_descent
 from aamcore.fitting.training.faces import prepare_faces
+from aamcore.fitting.training.occlusion import OcclusionTrainConfig, train_occlusion
 from aamcore.fitting.training.update import scheme_for_level, train_update
 from aamcore.io import FaceSample
 from aamcore.io.landmarks import IBUG68_MIRROR
@@ -39,12 +42,14 @@ from aamcore.progress import bar as progress_bar
 from aamcore.progress import note
 from aamcore.reproducible import one_blas_thread
 
-RECIPE = "fitting v8"
+RECIPE = "fitting v9"
 """Names the training below in the cache key: change it when the training changes."""
 MIRRORS = {"ibug68": IBUG68_MIRROR}
 """The left-right permutation of each markup that has one (mirroring needs it)."""
 BINARY = BinaryTrainConfig()
 """The local-binary recipe of the models trained here."""
+OCCLUSION = OcclusionTrainConfig()
+"""The occlusion test's recipe of the models trained here."""
 
 Bar = Callable[[str], Callable[[Iterable[Any]], Iterable[Any]]]
 
@@ -90,6 +95,7 @@ def train_fitting_model(
     binary: BinaryTrainConfig | None = BINARY,
     mirror: bool = True,
     aam_images: int | None = None,
+    occlusion: OcclusionTrainConfig | None = OCCLUSION,
 ) -> FittingModel:
     """Train what fitting ``aam`` needs, from training ``samples``.
 
@@ -98,7 +104,9 @@ def train_fitting_model(
     ``max_images`` images, one per pyramid level), the supervised-descent
     cascade (on at most ``aam_images`` samples) and, unless ``binary`` is None,
     the local-binary cascade on every sample (and its mirror image, where
-    ``mirror`` and the markup has a permutation, :data:`MIRRORS`).
+    ``mirror`` and the markup has a permutation, :data:`MIRRORS`), and unless
+    ``occlusion`` is None the occlusion test, on the samples the AAM was not
+    trained on (all of them when fewer than 50 are left).
     ``bar(desc)`` shows the progress of each phase (:func:`aamcore.progress.bar`).
     """
     bar = bar or _no_bar
@@ -121,7 +129,30 @@ def train_fitting_model(
         cascade_binary = binary_cascade(aam, samples, detected, mapping, binary, permutation,
                                         bar)
         aam.summary["fit_images"] = [s.image_id() for s in samples]
-    return FittingModel(aam, mapping, updates, cascade, cascade_binary)
+    occlusion_part = None
+    if occlusion is not None:
+        used = set(chosen)
+        unseen = [s for k, s in enumerate(samples) if k not in used]
+        occlusion_part = train_occlusion(aam, unseen if len(unseen) >= 50 else samples,
+                                         regressor_landmarks(aam, mapping, cascade_binary),
+                                         occlusion)
+    return FittingModel(aam, mapping, updates, cascade, cascade_binary, occlusion_part)
+
+
+def regressor_landmarks(aam: AAM, mapping: BoxToShapeMapping, cascade: BinaryCascade | None):
+    """How the stack places a training face's landmarks: the local-binary method from the
+    mean shape on the face's landmark box (None without a cascade)."""
+    if cascade is None:
+        return None
+    from aamcore.fitting.algorithm.local_binary import LocalBinary
+
+    method = LocalBinary(cascade, aam)
+
+    def landmarks(image, truth):
+        start = mapping.place(landmark_box(truth), "landmarks")
+        return method.fit_shape(method.prepare(image), start).points
+
+    return landmarks
 
 
 def binary_cascade(aam: AAM, samples: Sequence[FaceSample], detected: Sequence[DetectedFace],
@@ -147,6 +178,7 @@ def build_fitting_model(
     aam_images: int | None = defaults.MODEL_AAM_IMAGES,
     mirror: bool = True,
     binary: BinaryTrainConfig | None = BINARY,
+    update_method: str = "jacobian",
 ) -> FittingModel:
     """Train a fitting model on the training faces of ``dataset`` (see :func:`default_model_path`),
     with a progress bar per long phase."""
@@ -158,8 +190,9 @@ def build_fitting_model(
          f"appearance model on {len(few)})")
     aam = train_aam(few, data.scheme, config, progress=progress_bar("appearance model"),
                     source=f"{dataset} [{f'first {limit}' if limit else 'training split'}]")
-    model = train_fitting_model(aam, data.samples, max_images=max_images, bar=progress_bar,
-                                binary=binary, mirror=mirror, aam_images=aam_images)
+    model = train_fitting_model(aam, data.samples, update_method, max_images,
+                                bar=progress_bar, binary=binary, mirror=mirror,
+                                aam_images=aam_images)
     note(f"fitting model trained in {time.perf_counter() - start:.0f} s")
     return model
 
@@ -170,6 +203,7 @@ def default_model_path(
     max_images: int = defaults.MODEL_UPDATE_IMAGES,
     limit: int | None = None,
     aam_images: int | None = defaults.MODEL_AAM_IMAGES,
+    update_method: str = "jacobian",
 ) -> Path:
     """Path of a cached fitting model, trained on first use (the stack's model by default).
 
@@ -189,17 +223,23 @@ def default_model_path(
     aam_images : int, optional
         Faces the AAM and the supervised-descent cascade are trained on (spread
         over the training faces); the local-binary cascade learns from all.
+    update_method : {"jacobian", "regression"}
+        How the update matrices are learned (Algorithm 6 or 5).
     """
     config = config or TrainConfig(colour=False, shape_variance=0.98)
     data = training_set(dataset, limit)
     chosen = f"first {limit}" if limit else "all"
-    key = cache_key(",".join(str(f) for f in data.folders), config, {
-        "select": chosen, "split": data.split, "aam_images": aam_images,
-        "prepare": f"{RECIPE}, {max_images} images", "binary": BINARY.to_json()})
+    extra = {"select": chosen, "split": data.split, "aam_images": aam_images,
+             "prepare": f"{RECIPE}, {max_images} images", "binary": BINARY.to_json(),
+             "occlusion": asdict(OCCLUSION)}
+    if update_method != "jacobian":
+        extra["update"] = update_method
+    key = cache_key(",".join(str(f) for f in data.folders), config, extra)
 
     def build(path: Path) -> Path:
         note(f"the fitting model is trained once and kept in {path.parent}")
-        model = build_fitting_model(dataset, config, max_images, limit, aam_images)
+        model = build_fitting_model(dataset, config, max_images, limit, aam_images,
+                                    update_method=update_method)
         return model.save(path)
 
     return cached_file(cache_dir() / f"{data.name}-{key}.npz", build, FittingModel.load)

@@ -4,6 +4,7 @@ import pytest
 from aamcore.evaluation.metrics import nme
 from aamcore.fitting.algorithm.fixed_jacobian import FixedJacobian
 from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.result import AAMFit, LandmarkFit
 from aamcore.fitting.tracker import Tracker
 from aamcore.fitting.training.update import PerturbationScheme, train_update
 from aamcore.model.similarity import Similarity
@@ -30,7 +31,8 @@ def test_fit_from_displaced_start_on_held_out_subjects(imm_fit_model, imm_test, 
         starts.append(nme(fitter.aam.shape_instance(c0, t0), sample.points, scheme))
         result = fitter.fit(sample.load_image(), c0, t0)
         errors.append(_nme(result, sample, scheme))
-        assert result.iterations >= 1 and len(result.iteration_seconds) == result.iterations
+        assert isinstance(result, AAMFit) and result.residual.shape == (fitter.aam.frame.n_pixels,)
+        assert result.iterations >= 1 and len(result.seconds) == result.iterations
     assert np.median(errors) < 0.05
     assert np.mean(errors) < 0.5 * np.mean(starts)
 
@@ -121,20 +123,59 @@ def test_failure_tests_and_appearance_of_each_kind_of_method(imm_fit_model, imm_
 
     image = imm_test[0].load_image()
     box = HaarFaceDetector().detect(image)[0]
-    n = imm_fit_model.aam.n_appearance
+    n, m = imm_fit_model.aam.n_appearance, imm_fit_model.aam.frame.n_pixels
+    bare = Fitter(imm_fit_model, appearance=False)
+    assert bare.name == "local-binary" and bare.failure_test == "quality" and not bare.warps
+    plain = bare.fit_box(image, box)
+    assert type(plain) is LandmarkFit and math.isfinite(plain.score) and plain.ok
+    assert plain.confidence == pytest.approx(bare.quality.confidence(plain.score))
     default = Fitter(imm_fit_model)
-    assert default.name == "local-binary" and default.failure_test == "quality"
-    plain = default.fit_box(image, box)
-    assert plain.c.shape == (0,) and math.isfinite(plain.score) and plain.ok
-    assert plain.confidence == pytest.approx(default.quality.confidence(plain.score))
-    sampled = Fitter(imm_fit_model, appearance=True).fit_box(image, box)
-    assert sampled.c.shape == (n,) and math.isfinite(sampled.error)
-    assert np.allclose(sampled.points, plain.points)
-    chi2 = Fitter(imm_fit_model, failure_test="chi2")
+    assert default.warps
+    sampled = default.fit_box(image, box)
+    assert isinstance(sampled, AAMFit) and sampled.c.shape == (n,) and sampled.iterations == 0
+    assert sampled.residual.shape == (m,) and math.isfinite(sampled.error)
+    assert sampled.error == pytest.approx(float(sampled.residual @ sampled.residual) / m)
+    assert np.allclose(sampled.points, plain.points) and sampled.score == plain.score
+    assert sampled.occluded is not None and sampled.occluded.shape == (len(plain.points),)
+    chi2 = Fitter(imm_fit_model, failure_test="chi2", appearance=False)
     judged = chi2.fit_box(image, box)
     assert judged.c.shape == (n,) and chi2.quality is None
     assert judged.failed or judged.confidence == pytest.approx(chi2.failure.confidence(judged.c))
     aam = Fitter(imm_fit_model, "fixed-jacobian", failure_test="quality")
     scored = aam.fit_box(image, box)
-    assert math.isfinite(scored.score) and scored.c.shape == (n,)
+    assert math.isfinite(scored.score) and scored.c.shape == (n,) and aam.warps
     assert Fitter(imm_fit_model, "fixed-jacobian").failure_test == "chi2"
+
+
+def test_the_quality_threshold_is_applied_once_by_the_fitter(imm_fit_model, imm_test) -> None:
+    from aamcore.detection.haar import HaarFaceDetector
+    from aamcore.fitting.failure import QualityTest
+
+    image = imm_test[0].load_image()
+    box = HaarFaceDetector().detect(image)[0]
+    fitter = Fitter(imm_fit_model, appearance=False)
+    raw = fitter.algorithm.fit_shape(image, imm_fit_model.mapping.place(box, "detector"))
+    # The algorithm scores; it does not judge (its fit is failed only for what it cannot
+    # go on from, here nothing).
+    assert raw.ok and np.isnan(raw.confidence)
+    judged = fitter.fit_box(image, box)
+    assert judged.failed == bool(QualityTest(imm_fit_model.binary.threshold).reason(judged.score))
+
+
+def test_refinement_iterates_the_aam_from_the_landmarks(imm_fit_model, imm_test) -> None:
+    from aamcore.detection.haar import HaarFaceDetector
+
+    image = imm_test[0].load_image()
+    box = HaarFaceDetector().detect(image)[0]
+    projected = Fitter(imm_fit_model).fit_box(image, box)
+    refined = Fitter(imm_fit_model, refine=3).fit_box(image, box)
+    assert isinstance(refined, AAMFit) and 1 <= refined.iterations <= 3
+    # The AAM starts from the appearance projected at the landmarks (its error is that of
+    # the model instance of c, not of the landmarks) and only takes steps that lower it.
+    assert refined.score == projected.score and refined.error == refined.errors[-1]
+    assert all(b <= a for a, b in zip(refined.errors, refined.errors[1:], strict=False))
+    staged = Fitter(imm_fit_model, refine=2, refine_with="supervised-descent").fit_box(image, box)
+    assert isinstance(staged, AAMFit) and staged.iterations == 2 and staged.ok
+    assert staged.score == projected.score
+    with pytest.raises(ValueError, match="cannot refine with 'project-out-ic'"):
+        Fitter(imm_fit_model, refine=2, refine_with="project-out-ic")

@@ -63,3 +63,34 @@ def test_older_model_files_are_refused_clearly(saved, tmp_path) -> None:
     with pytest.raises(ModelFileError, match="incomplete fitting part"):
         FittingModel.load(broken)
     assert zipfile.is_zipfile(saved)
+
+
+def test_every_part_round_trips_and_a_missing_one_is_named(
+        synthetic_aam, synthetic_mapping, synthetic_binary, synthetic_faces, tmp_path) -> None:
+    from aamcore.fitting.algorithm import missing_part
+    from aamcore.fitting.training.occlusion import OcclusionTrainConfig, train_occlusion
+
+    occlusion = train_occlusion(synthetic_aam, synthetic_faces.train, None,
+                                OcclusionTrainConfig(faces=8, occluded=1, epochs=20))
+    model = FittingModel(synthetic_aam, synthetic_mapping, [], None, synthetic_binary, occlusion)
+    loaded = FittingModel.load(model.save(tmp_path / "parts.npz"))
+    assert loaded.occlusion is not None and loaded.occlusion.threshold == occlusion.threshold
+    assert np.array_equal(loaded.occlusion.centre, occlusion.centre)
+    assert loaded.update_method == "" and missing_part(loaded, "local-binary") == ""
+    assert "no update matrix, which fixed-jacobian needs" in missing_part(loaded, "fixed-jacobian")
+    assert "supervised-descent cascade" in missing_part(loaded, "supervised-descent")
+    assert missing_part(loaded, "project-out-ic") == ""
+    assert "unknown fitting algorithm" in missing_part(loaded, "newton")
+
+
+def test_reading_a_model_imports_no_fitting_algorithm() -> None:
+    import subprocess
+    import sys
+
+    code = ("import sys, aamcore.fitting.model; "
+            "print(sorted(m for m in sys.modules if m.startswith('aamcore.fitting.algorithm.')"
+            " and m.rsplit('.', 1)[1] in ('local_binary', 'supervised_descent', "
+            "'fixed_jacobian', 'multi_resolution', 'project_out_ic')))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=60, check=True)
+    assert done.stdout.strip() == "[]"

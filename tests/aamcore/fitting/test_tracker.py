@@ -35,7 +35,9 @@ def tracker(model_path: Path) -> Tracker:
 def test_tracks_with_one_detection(tracker: Tracker, faces) -> None:
     results = [tracker.track(f) for f in faces[:30]]
     assert all(r is not None and r.ok for r in results) and tracker.detections == 1
-    assert all(r.c.shape == (0,) and 0 < r.confidence <= 1 for r in results)
+    n = tracker.fitter.aam.n_appearance
+    assert all(r.c.shape == (n,) and r.iterations == 0 and 0 < r.confidence <= 1
+               for r in results)
     assert tracker.fitter.failure_test == "quality"
 
 

@@ -17,7 +17,8 @@ def results() -> list[FaceResult]:
     good = FaceResult(0, 0.0, True, 0.9, points, rotation=np.eye(3),
                       translation_mm=np.array([1.0, -2.0, 600.0]), roll_deg=1.0, pitch_deg=2.0,
                       yaw_deg=-3.0, pose_reliable=True, expression="HA",
-                      expression_scores={"HA": 0.75, "NE": 0.25})
+                      expression_scores={"HA": 0.75, "NE": 0.25},
+                      occluded=np.arange(68) >= 48)
     lost = FaceResult(1, 1 / 30, False, 0.0, np.zeros((0, 2)), reason="no face")
     return [good, lost]
 
@@ -36,6 +37,8 @@ def test_csv_rows_have_the_openface_like_columns(tmp_path: Path) -> None:
     assert rows[1]["success"] == "0" and rows[1]["pose_Tz"] == "" and rows[1]["x_0"] == ""
     assert rows[0]["pose_reliable"] == "1" and rows[0]["reason"] == ""
     assert rows[1]["pose_reliable"] == "" and rows[1]["reason"] == "no face"
+    assert rows[0]["occluded_0"] == "0" and rows[0]["occluded_48"] == "1"
+    assert rows[1]["occluded_48"] == ""
 
 
 def test_json_lines_hold_one_result_each(tmp_path: Path) -> None:
@@ -46,3 +49,4 @@ def test_json_lines_hold_one_result_each(tmp_path: Path) -> None:
     lines = [json.loads(line) for line in path.read_text().splitlines()]
     assert [d["frame"] for d in lines] == [0, 1]
     assert lines[0]["translation_mm"] == [1.0, -2.0, 600.0] and lines[1]["reason"] == "no face"
+    assert lines[0]["occluded"] == [False] * 48 + [True] * 20 and lines[1]["occluded"] is None

@@ -38,7 +38,11 @@ def test_written_sequence_reads_back_exactly(tmp_path: Path) -> None:
     truth = read_ground_truth(tmp_path / "seq")
     np.testing.assert_array_equal(truth.landmarks, seq.landmarks)
     np.testing.assert_array_equal(truth.occluded, seq.occluded)
+    np.testing.assert_array_equal(truth.covered, seq.covered)
     assert truth.occluded.any() and truth.frames == 8
+    # the landmarks the hand covers are in frames with the hand, and only there
+    assert truth.covered.shape == (8, 68) and np.all((truth.covered >= 0) & (truth.covered <= 1))
+    assert truth.covered[truth.occluded].max() > 0.5 and not truth.covered[~truth.occluded].any()
     assert truth.fps == 25.0 and truth.spec == spec
 
 
@@ -57,3 +61,15 @@ def test_sequence_write_keeps_no_spec_and_a_rewrite_replaces(tmp_path: Path) -> 
 def test_a_folder_without_a_sequence_has_no_ground_truth(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError):
         read_ground_truth(tmp_path)
+
+
+def test_covered_shares_are_the_share_of_each_landmarks_disc() -> None:
+    from aamcore.synth.motion import PART_RADIUS, covered_shares
+
+    mask = np.zeros((100, 200), np.uint8)
+    mask[:, :100] = 255  # the left half covered
+    points = np.array([[20.0, 50.0], [180.0, 50.0], [100.0, 50.0], [0.0, 0.0]])
+    shares = covered_shares(mask, points)
+    assert shares[0] == 1.0 and shares[1] == 0.0 and 0.4 < shares[2] < 0.6
+    assert shares[3] == 1.0  # a disc partly outside the frame counts its inside
+    assert PART_RADIUS * 180 > 10  # the discs above are about 14 px

@@ -20,7 +20,7 @@ from aamcore.expression.recogniser import ExpressionRecogniser
 from aamcore.expression.training import stack_observations
 from aamcore.fitting.model import FittingModel
 from aamcore.io.jaffe import load_jaffe
-from proto import Fit, Frame, Header, encode
+from proto import Fit, FitAppearance, Frame, Header, encode
 from proto.keys import status_key, topic_key
 from services.bus.connection import BusOptions
 from services.bus.options import options_argv
@@ -41,9 +41,12 @@ def fit_of(frame: Frame, landmarks: np.ndarray, appearance: np.ndarray, failed: 
     """The ``Fit`` the fitter would publish for ``frame``."""
     h = frame.header
     header = Header.now(h.stream_id, h.frame_index, "fitter", h.capture_time_ns, h.run_id)
-    return Fit(header, scheme, landmarks.astype(np.float32), appearance.astype(np.float32),
-               np.zeros(4, np.float32), frame.width, frame.height, 0.0, 5, not failed, failed,
-               reason, "cpu", 0.0 if failed else 0.9)
+    found = None if appearance is None or appearance.size == 0 else FitAppearance(
+        appearance.astype(np.float32), np.zeros((2, 2), np.float32), 0.0, 5, not failed,
+        np.zeros(0, np.uint8))
+    return Fit(header, scheme, landmarks.astype(np.float32), np.zeros(4, np.float32),
+               frame.width, frame.height, failed, reason, 0.0 if failed else 0.9,
+               "cpu" if found is not None else "none", found)
 
 
 def poser_stream(model_path: Path, jaffe_dir: Path, poser: str, repeats: int,

@@ -1,9 +1,9 @@
-"""services.fitter.service: both warp paths agree, fit messages, the detector fallback."""
+"""services.fitter.service: both warp paths agree, fit messages, the warp started only when
+something warps and falling back to the CPU mid-run, the detector fallback."""
 
 from __future__ import annotations
 
 import logging
-import math
 from pathlib import Path
 
 import cv2
@@ -13,13 +13,14 @@ import pytest
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
-from aamcore.fitting.result import FitResult
+from aamcore.fitting.result import AAMFit, LandmarkFit
 from aamcore.model.similarity import Similarity
-from aamcore.warp.worker import make_warp
+from aamcore.warp.paths import FitterWarp
+from aamcore.warp.reference_frame import ReferenceFrame
 from proto import Header, decode, encode
 from services.bus.connection import BusOptions
 from services.bus.session import Service
-from services.fitter.service import NO_FACE, ServiceDetector, fit_message
+from services.fitter.service import NO_FACE, ServiceDetector, fit_message, warm_up
 
 MEAN_TOLERANCE_PX = 1.0
 """Largest mean landmark distance between the GPU and CPU fits of one frame (the face is
@@ -49,12 +50,13 @@ def test_gpu_and_cpu_warps_give_the_same_fit(model_path: Path, single_face: Path
     box = HaarFaceDetector().detect(images[0])[0]
     fits = {}
     for prefer in ("gpu", "cpu"):
-        warp, path = make_warp(model.aam, prefer)
+        warp = FitterWarp(model.aam, prefer)
         try:
-            assert path == prefer, "no GL context: the GPU path cannot be compared"
             # the default method warps only to sample the appearance
-            fitter = Fitter(model, algorithm, warp=warp, appearance=True)
-            fits[path] = [fitter.fit_box(image, box) for image in images]
+            fitter = Fitter(model, algorithm, warp=warp)
+            fits[prefer] = [fitter.fit_box(image, box) for image in images]
+            assert warp.path == prefer, "no GL context: the GPU path cannot be compared"
+            assert warp.take_path() == prefer and warp.counts[prefer] >= len(images)
         finally:
             warp.close()
     for gpu, cpu in zip(fits["gpu"], fits["cpu"], strict=True):
@@ -63,34 +65,86 @@ def test_gpu_and_cpu_warps_give_the_same_fit(model_path: Path, single_face: Path
         assert gpu.error == pytest.approx(cpu.error, rel=0.05, abs=1e-3)
 
 
-def _result(points: np.ndarray, failed: bool = False, reason: str = "") -> FitResult:
-    return FitResult(points, np.zeros(3), Similarity(1.1, 0.0, 5.0, 6.0), 0.02, 4, True, failed,
-                     reason)
+def test_the_gl_worker_starts_only_when_something_warps(model_path: Path) -> None:
+    model = FittingModel.load(model_path)
+    warp = FitterWarp(model.aam, "gpu")
+    fitter = Fitter(model, warp=warp, appearance=False)
+    warm_up(fitter, warp)
+    assert not fitter.warps and not warp.started and warp.path == "none"
+    warp = FitterWarp(model.aam, "gpu")
+    fitter = Fitter(model, warp=warp)
+    try:
+        warm_up(fitter, warp)
+        assert fitter.warps and warp.started and warp.path == "gpu"
+        assert warp.counts == {"gpu": 0, "cpu": 0}  # the warm-up's warps are not counted
+    finally:
+        warp.close()
+
+
+def test_a_gl_warp_that_fails_mid_run_falls_back_to_the_cpu(
+    model_path: Path, single_face: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    model = FittingModel.load(model_path)
+    image = frames(single_face, (0,))[0]
+    box = HaarFaceDetector().detect(image)[0]
+    warp = FitterWarp(model.aam, "gpu")
+    fitter = Fitter(model, warp=warp)
+    first = fitter.fit_box(image, box)
+    assert warp.take_path() == "gpu" and isinstance(first, AAMFit)
+    warp._warp.close()  # the GL thread goes away, as a lost context would take it
+    with caplog.at_level(logging.WARNING):
+        again = fitter.fit_box(image, box)
+    assert isinstance(again, AAMFit) and warp.take_path() == "cpu" and warp.path == "cpu"
+    assert any("warping on the CPU from now on" in r.getMessage() for r in caplog.records)
+    np.testing.assert_allclose(again.points, first.points)
+    assert again.error == pytest.approx(first.error, rel=0.05, abs=1e-3)
+
+
+FRAME = ReferenceFrame.from_mean_shape(np.array([[0.0, 0.0], [8.0, 0.0], [0.0, 6.0], [8.0, 6.0]]))
+"""A small reference frame of two triangles."""
+
+
+def _result(points: np.ndarray, failed: bool = False, reason: str = "") -> AAMFit:
+    flags = np.zeros(len(points), bool)
+    flags[:5] = True
+    return AAMFit(points=points, similarity=Similarity(1.1, 0.0, 5.0, 6.0), failed=failed,
+                  reason=reason, confidence=0.0 if failed else 0.75, c=np.zeros(3),
+                  residual=np.full(FRAME.n_pixels, 0.5, np.float32), error=0.25, iterations=4,
+                  occluded=None if failed else flags)
 
 
 def test_fit_messages_for_good_failed_lost_and_broken_results() -> None:
     header = Header.now("cam0", 3, "fitter")
     points = np.random.default_rng(0).uniform(10, 200, (68, 2))
     size = (640, 480)
-    good = decode(encode(fit_message(header, _result(points), "ibug68", "gpu", size)), "fit")
-    assert not good.failed and good.converged and good.warp_path == "gpu"
+    good = decode(encode(fit_message(header, _result(points), "ibug68", "gpu", size, FRAME)),
+                  "fit")
+    assert not good.failed and good.warp_path == "gpu" and good.confidence == 0.75
+    found = good.appearance
+    assert found is not None and found.converged and found.iterations == 4
+    assert found.texture_error == 0.25 and found.occluded.tolist() == [1] * 5 + [0] * 63
+    assert found.texture_residual.shape == FRAME.size
+    assert np.allclose(found.texture_residual[FRAME.mask], 0.5)
+    assert np.all(found.texture_residual[~FRAME.mask] == 0)
     assert (good.image_width, good.image_height) == (640, 480)
     assert np.allclose(good.similarity, [1.1, 0.0, 5.0, 6.0])
     assert np.allclose(good.landmarks, points, atol=1e-3)
-    failed = fit_message(header, _result(points, True, "beyond 3 sigma"), "ibug68", "cpu", size)
+    failed = fit_message(header, _result(points, True, "beyond 3 sigma"), "ibug68", "cpu", size,
+                         FRAME)
     assert failed.failed and failed.failure_reason == "beyond 3 sigma" and len(failed.landmarks)
-    lost = fit_message(header, None, "ibug68", "cpu", (640, 480))
+    assert failed.appearance is not None and failed.appearance.occluded.shape == (0,)
+    lost = fit_message(header, None, "ibug68", "none", (640, 480), FRAME)
     assert lost.failed and lost.failure_reason == NO_FACE and lost.landmarks.shape == (0, 2)
-    assert math.isnan(lost.texture_error)
-    broken = fit_message(header, _result(np.full((68, 2), np.nan)), "ibug68", "cpu", (640, 480))
+    assert lost.appearance is None and lost.warp_path == "none"
+    broken = fit_message(header, _result(np.full((68, 2), np.nan)), "ibug68", "cpu", (640, 480),
+                         FRAME)
     assert broken.failed and broken.failure_reason == "non-finite result"
-    assert broken.landmarks.shape == (0, 2)
-    # the default method's fits carry no appearance and no texture error
-    bare = FitResult(points, np.zeros(0), Similarity(1.1, 0.0, 5.0, 6.0), math.nan, 3,
-                     confidence=0.9, score=-3.5)
-    message = decode(encode(fit_message(header, bare, "ibug68", "cpu", size)), "fit")
-    assert not message.failed and message.appearance.shape == (0,)
-    assert math.isnan(message.texture_error) and message.confidence == pytest.approx(0.9)
+    assert broken.landmarks.shape == (0, 2) and broken.appearance is None
+    # a landmark regressor's fit without the appearance: nothing was warped
+    bare = LandmarkFit(points, Similarity(1.1, 0.0, 5.0, 6.0), confidence=0.9, score=-3.5)
+    message = decode(encode(fit_message(header, bare, "ibug68", "none", size, FRAME)), "fit")
+    assert not message.failed and message.appearance is None and message.warp_path == "none"
+    assert message.confidence == pytest.approx(0.9) and message.c is None
 
 
 def test_without_a_detector_service_the_fitter_detects_locally_and_says_so(

@@ -37,9 +37,8 @@ def marked_face(data_dir: Path, name: str) -> tuple[np.ndarray, tuple[int, int]]
 
 def fit_of(points: np.ndarray, size: tuple[int, int], failed: bool = False) -> Fit:
     return Fit(Header.now("cam0", 9, "fitter", capture_time_ns=123), "ibug68",
-               points.astype(np.float32), np.zeros(3, np.float32), np.ones(4, np.float32),
-               size[0], size[1], 0.01, 3, not failed, failed, "lost" if failed else "", "cpu",
-               0.0 if failed else 0.9)
+               points.astype(np.float32), np.ones(4, np.float32), size[0], size[1], failed,
+               "lost" if failed else "", 0.0 if failed else 0.9, "none", None)
 
 
 @pytest.fixture(scope="module")

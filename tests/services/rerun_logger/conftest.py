@@ -26,7 +26,16 @@ from scipy.spatial.transform import Rotation
 from aamcore.io import FaceSample, load_annotated_folder
 from aamcore.pose.head_model import openface68
 from proto.header import Header
-from proto.messages import Expression, FaceBoxes, Fit, Frame, HeadPose, Message, Overlay
+from proto.messages import (
+    Expression,
+    FaceBoxes,
+    Fit,
+    FitAppearance,
+    Frame,
+    HeadPose,
+    Message,
+    Overlay,
+)
 from services.rerun_logger.recording import Recording, open_recording
 
 CAPTURE_NS = 1_750_000_000_000_000_000
@@ -303,11 +312,12 @@ def face_messages(sample: FaceSample, index: int, failed: bool = False) -> list[
         FaceBoxes(header("detector", index, 20.0), image_width=width, image_height=height,
                   boxes=np.array([[*lo, *(hi - lo)]]), scores=np.array([0.9])),
         Fit(header("fitter", index, 30.0 + index), scheme="ibug68", landmarks=points,
-            appearance=np.zeros(5), similarity=np.array([1.0, 0.0, 0.0, 0.0]), image_width=width,
-            image_height=height, texture_error=0.01 * (index + 1),
-            iterations=5 + index, converged=not failed, failed=failed,
-            failure_reason="texture error too large" if failed else "", warp_path="cpu",
-            confidence=0.0 if failed else 0.8),
+            similarity=np.array([1.0, 0.0, 0.0, 0.0]), image_width=width, image_height=height,
+            failed=failed, failure_reason="texture error too large" if failed else "",
+            confidence=0.0 if failed else 0.8, warp_path="cpu",
+            appearance=FitAppearance(np.zeros(5), np.full((6, 8), 0.25 * index),
+                                     0.01 * (index + 1), 5 + index, not failed,
+                                     (np.arange(len(points)) < 10 * index).astype(np.uint8))),
         HeadPose(header("pose", index, 32.0 + index), rotation=R, translation_mm=T,
                  roll_deg=roll, pitch_deg=pitch, yaw_deg=yaw,
                  intrinsics=intrinsics(width, height), image_width=width, image_height=height,

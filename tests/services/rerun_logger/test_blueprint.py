@@ -24,6 +24,7 @@ def test_blueprint_is_written_with_a_view_per_output(tmp_path, rrd_tools):
     assert views == {
         ent.CAMERA: "2D",
         ent.OVERLAY: "2D",
+        ent.RESIDUAL: "2D",
         ent.WORLD: "3D",
         ent.EXPRESSION_SERIES: "TimeSeries",
         ent.LATENCY_SERIES: "TimeSeries",

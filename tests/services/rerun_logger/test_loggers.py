@@ -141,6 +141,10 @@ def test_fit_logger_logs_keypoints_of_the_scheme(new_recording, rrd_tools, faces
     assert content.mono(f"{series}/iterations", "Scalars:scalars") == [5.0, 6.0, 7.0]
     np.testing.assert_allclose(content.mono(f"{series}/texture_error", "Scalars:scalars"),
                                [0.01, 0.02, 0.03])
+    assert content.mono(f"{series}/occluded", "Scalars:scalars") == [0.0, 10.0, 20.0]
+    assert [len(p) for p in content.values("/" + ent.OCCLUDED, "Points2D:positions")] == [
+        0, 10, 20]
+    assert len(content.values("/" + ent.RESIDUAL, "Image:buffer")) == 3
     (event,) = content.mono("/" + ent.EVENTS, "TextLog:text")
     assert "frame 2" in event and "texture error too large" in event
 
@@ -152,9 +156,8 @@ def test_fit_logger_clears_landmarks_when_no_face_is_found(new_recording, rrd_to
     _at(rec, 0)
     logger.log(golden_fit)
     no_face = Fit(golden_fit.header, **(golden_fit.to_dict() | {
-        "landmarks": np.zeros((0, 2)), "appearance": np.zeros(0), "similarity": np.zeros(0),
-        "texture_error": math.nan, "iterations": 0, "converged": False, "failed": True,
-        "failure_reason": "no face",
+        "landmarks": np.zeros((0, 2)), "appearance": None, "similarity": np.zeros(0),
+        "warp_path": "none", "failed": True, "failure_reason": "no face",
     }))
     _at(rec, 1)
     logger.log(no_face)
@@ -172,10 +175,10 @@ def test_fit_logger_draws_unknown_schemes_without_connections(new_recording, rrd
     golden_fit = golden_messages()["fit"]
     _at(rec, 0)
     logger.log(golden_fit)
-    imm_fit = Fit(golden_fit.header, scheme="imm73", landmarks=imm.points, appearance=np.zeros(3),
+    imm_fit = Fit(golden_fit.header, scheme="imm73", landmarks=imm.points,
                   similarity=np.array([1.0, 0.0, 0.0, 0.0]), image_width=800, image_height=600,
-                  texture_error=math.nan, iterations=3, converged=True,
-                  failed=False, failure_reason="", warp_path="gpu", confidence=0.9)
+                  failed=False, failure_reason="", confidence=0.9, warp_path="none",
+                  appearance=None)
     _at(rec, 1)
     logger.log(imm_fit)
     content = _finished(rec, rrd_tools)
@@ -185,7 +188,7 @@ def test_fit_logger_draws_unknown_schemes_without_connections(new_recording, rrd
     imm_class = next(c for c in classes if c["class_id"] == imm_id)["class_description"]
     assert imm_class["keypoint_connections"] == []
     assert len(imm_class["keypoint_annotations"]) == 73
-    # NaN texture error: nothing logged for that frame.
+    # No appearance: no texture error logged for that frame.
     assert content.frames("/" + ent.FIT_SERIES + "/texture_error", "Scalars:scalars") == [0]
 
 

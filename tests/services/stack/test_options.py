@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from aamcore.fitting.config import FITTER
 from services.bus.options import OptionError
 from services.stack.options import parse_run_args
 
@@ -56,3 +57,18 @@ def test_fast_pacing_keeps_every_fit_for_pose_and_expression() -> None:
     chosen = parse_run_args(["--video", "clip.mp4", "--pace", "fast"])
     assert chosen.services["fitter"].algorithm == "local-binary"
     assert chosen.services["fitter"].failure_test == "auto" and chosen.services["fitter"].appearance
+
+
+def test_a_profile_sets_each_stage_and_given_options_override_it() -> None:
+    thesis = parse_run_args(["--video", "x.mp4", "--profile", "thesis"])
+    fitter, pose = thesis.services["fitter"], thesis.services["pose"]
+    assert (fitter.algorithm, fitter.failure_test, pose.estimator) == (
+        "fixed-jacobian", "eq7.2", "posit")
+    assert thesis.launch.profile == "thesis" and fitter.appearance
+    mixed = parse_run_args(["--video", "x.mp4", "--profile", "thesis", "--estimator", "contour",
+                            "--no-occlusion", "--refine", "2"])
+    assert mixed.services["pose"].estimator == "contour"
+    assert mixed.services["fitter"].algorithm == "fixed-jacobian"
+    assert not mixed.services["fitter"].occlusion and mixed.services["fitter"].refine == 2
+    default = parse_run_args(["--video", "x.mp4"])
+    assert default.services["fitter"].config() == FITTER

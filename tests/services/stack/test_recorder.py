@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from aamcore.config import REPO_ROOT
-from proto import EndOfStream, Fit, Header, encode
+from proto import EndOfStream, Fit, FitAppearance, Header, encode
 from services.stack.recorder import (
     MAGIC,
     RecordingError,
@@ -27,9 +27,10 @@ from services.stack.recorder import (
 
 def messages() -> list:
     h = Header.now("cam0", 1, "fitter")
-    fit = Fit(h, "ibug68", np.ones((68, 2), np.float32), np.zeros(3, np.float32),
-              np.array([1.0, 0.0, 0.0, 0.0], np.float32), 640, 480, 0.5, 4, True, False, "",
-              "gpu", 0.9)
+    fit = Fit(h, "ibug68", np.ones((68, 2), np.float32), np.array([1.0, 0.0, 0.0, 0.0], np.float32),
+              640, 480, False, "", 0.9, "gpu",
+              FitAppearance(np.zeros(3, np.float32), np.zeros((3, 4), np.float32), 0.5, 4, True,
+                            np.zeros(68, np.uint8)))
     return [fit, EndOfStream(Header.now("cam0", 1, "source"), total_frames=2, reason="end")]
 
 
