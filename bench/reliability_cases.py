@@ -68,8 +68,8 @@ def extreme_fits(argv: list[str]) -> tuple[bool, str]:
             w, h = (int(v) for v in rng.integers(16, 4096, size=2))
             points = rng.uniform([0, 0], [w, h]) + rng.standard_normal((68, 2))
             fit = Fit(Header.now(intruder.stream, 100_000 + k, "fitter", run_id=stack.run_id),
-                      "ibug68", points.astype(np.float32), np.zeros(0, np.float32),
-                      np.ones(4, np.float32), w, h, 0.0, 1, True, False, "", "cpu", 0.5)
+                      "ibug68", points.astype(np.float32), np.ones(4, np.float32), w, h, False,
+                      "", 0.5, "none", None)
             intruder.put(intruder.key("fit"), encode(fit), MUST_ARRIVE)
             time.sleep(0.02)
 

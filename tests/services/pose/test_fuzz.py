@@ -79,9 +79,8 @@ def test_a_flood_of_extreme_fits_leaves_the_pose_service_answering(
     sent = 0
     for k, (landmarks, width, height) in enumerate(extreme_fits(150, seed=1)):
         peer.publish(Fit(Header.now(peer.stream, k, "fitter"), "ibug68",
-                         landmarks.astype(np.float32), np.zeros(0, np.float32),
-                         np.ones(4, np.float32), width, height, 0.0, 1, True, False, "", "cpu",
-                         0.5))
+                         landmarks.astype(np.float32), np.ones(4, np.float32), width, height,
+                         False, "", 0.5, "none", None))
         sent += 1
         time.sleep(0.005)
     points, size = marked_face(data_dir, "einstein")
@@ -89,9 +88,8 @@ def test_a_flood_of_extreme_fits_leaves_the_pose_service_answering(
     last = None
     while last is None and time.monotonic() < deadline:  # a real face, until it is answered
         peer.publish(Fit(Header.now(peer.stream, sent, "fitter"), "ibug68",
-                         points.astype(np.float32), np.zeros(0, np.float32),
-                         np.ones(4, np.float32), size[0], size[1], 0.0, 1, True, False, "",
-                         "cpu", 0.9))
+                         points.astype(np.float32), np.ones(4, np.float32), size[0], size[1],
+                         False, "", 0.9, "none", None))
         time.sleep(0.2)
         while (got := poses.get(timeout=0)) is not None:
             if got.message.header.frame_index == sent:
