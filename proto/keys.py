@@ -45,6 +45,11 @@ OWNERS: dict[str, str] = {
 }
 """The service that owns each topic: the only producer whose messages on it count."""
 
+IMAGES = ("frame", "overlay")
+"""Topics of images: large, replaced many times a second, droppable."""
+RESULTS = ("boxes", "fit", "pose", "expression")
+"""Topics of per-frame results: small and wanted at once."""
+
 NAME_MAX_LEN = 64
 _NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
 

@@ -13,6 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from proto.keys import IMAGES, RESULTS
+
 
 @dataclass(frozen=True)
 class QoS:
@@ -40,12 +42,8 @@ MUST_ARRIVE = QoS("BLOCK", "DATA_HIGH", True)
 STATUS = QoS("DROP", "DATA", False)
 
 TOPIC_QOS: dict[str, QoS] = {
-    "frame": DROPPABLE,
-    "overlay": DROPPABLE,
-    "boxes": INTERACTIVE,
-    "fit": INTERACTIVE,
-    "pose": INTERACTIVE,
-    "expression": INTERACTIVE,
+    **{kind: DROPPABLE for kind in IMAGES},
+    **{kind: INTERACTIVE for kind in RESULTS},
     "eos": MUST_ARRIVE,
     "status": STATUS,
 }

@@ -13,6 +13,7 @@ import rerun as rr
 
 from aamcore.ar.glasses_mesh import LENS_PARTS, OPAQUE_PARTS, GlassesMesh
 from aamcore.pose.head_model import HeadModel
+from proto.keys import IMAGES, RESULTS
 from proto.messages import Expression, FaceBoxes, Fit, Frame, HeadPose, Message, Overlay, Status
 from services.rerun_logger import entities as ent
 from services.rerun_logger.annotations import LandmarkClasses
@@ -30,7 +31,7 @@ GLASSES_FRAME_COLOUR = (30, 30, 36)
 """The glasses' rims, bridge and temples, RGB: near-black, as the AR renderer draws them."""
 GLASSES_LENS_COLOUR = (51, 89, 140, 110)
 """The glasses' lenses, RGBA: a translucent blue, as the AR renderer draws them."""
-LATENCY_KINDS = ("frame", "boxes", "fit", "pose", "expression", "overlay")
+LATENCY_KINDS = (*IMAGES, *RESULTS)
 """Message kinds whose header latency (publish - capture) is a pipeline stage."""
 
 

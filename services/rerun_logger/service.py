@@ -36,7 +36,7 @@ from pathlib import Path
 from aamcore.ar.glasses_mesh import GlassesMesh, mean_head_glasses
 from aamcore.pose.errors import PoseError
 from aamcore.pose.head_model import HeadModel, openface68
-from proto.keys import status_wildcard
+from proto.keys import IMAGES, RESULTS, status_wildcard
 from proto.messages import EndOfStream
 from services.bus.args import parse_service_args
 from services.bus.process import init_process
@@ -86,10 +86,9 @@ def part_path(rrd: str, restarts: int) -> Path:
 
 def inputs(svc: Service) -> dict[str, tuple[str, int]]:
     """What the logger shows, results before images: ``{kind or key: (kind, capacity)}``."""
-    wanted = {kind: (kind, RESULT_BACKLOG) for kind in ("eos", "boxes", "fit", "pose",
-                                                        "expression")}
+    wanted = {kind: (kind, RESULT_BACKLOG) for kind in ("eos", *RESULTS)}
     wanted[status_wildcard(svc.stream)] = ("status", RESULT_BACKLOG)
-    wanted |= {kind: (kind, IMAGE_BACKLOG) for kind in ("frame", "overlay")}
+    wanted |= {kind: (kind, IMAGE_BACKLOG) for kind in IMAGES}
     return wanted
 
 

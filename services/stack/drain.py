@@ -8,13 +8,14 @@ import threading
 import time
 
 from proto import Message
+from services.stack.registry import ANSWERS
 
 DRAIN_QUIET = 0.75
 """Seconds without a result, once the last frame's fit has come, that end a run."""
 DRAIN_MAX = 20.0
 """Seconds after the end of stream after which a run ends whatever is missing."""
-RESULTS = ("fit", "pose", "expression", "overlay")
-"""Kinds whose arrival means the run is not quiet yet."""
+RESULTS = ANSWERS
+"""Kinds whose arrival means the run is not quiet yet (:data:`.registry.ANSWERS`)."""
 
 
 class EndOfRun:

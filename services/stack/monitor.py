@@ -50,7 +50,9 @@ class StackMonitor:
         self._record_images = record_images
 
     def subscribe(self) -> None:
-        for kind in ("boxes", "fit", "pose", "expression", "eos", *IMAGE_KINDS):
+        for kind in (*RESULT_KINDS, *IMAGE_KINDS):
+            if kind == "status":
+                continue
             self.svc.subscribe(self.svc.key(kind), self._on_sample)
         self.svc.subscribe(status_wildcard(self.svc.stream), self._on_sample)
 

@@ -27,11 +27,12 @@ from typing import BinaryIO
 
 from proto import Message, ProtoError, decode
 from proto.codec import payload_limit
+from proto.keys import IMAGES, RESULTS
 
 MAGIC = b"AAMTRACK-RECORD-1\n"
-RESULT_KINDS = ("boxes", "fit", "pose", "expression", "status", "eos")
+RESULT_KINDS = (*RESULTS, "status", "eos")
 """Kinds recorded by default; frames and overlays only when asked."""
-IMAGE_KINDS = ("frame", "overlay")
+IMAGE_KINDS = IMAGES
 _LENGTH = struct.Struct("<I")
 FLUSH_PERIOD = 1.0
 """Seconds at most between a write and its flush to the file."""
