@@ -19,12 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
+from aamcore.evaluation.pose import evaluate_pose_sequence, plot_pose_sequence
 from aamcore.evaluation.tracking import track_frames
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
 from aamcore.fitting.tracker import Tracker
 from aamcore.fitting.training.prepare import default_model_path
-from aamcore.pose.evaluation import evaluate_pose_sequence, plot_pose_sequence
 from aamcore.pose.head_model import openface68
 from aamcore.pose.intrinsics import CameraIntrinsics
 from aamcore.synth.head import synth_head

@@ -7,7 +7,7 @@ Run (from the repository root, ``AAMTRACK_DATA`` set)::
         [--noise 0.02] [--ablations] [--variants a,b]
 
 The synthetic head (``aamcore.synth``) is rendered through four sweeps at
-640x480 (``aamcore.pose.sweeps.DEFAULT_SWEEPS``): yaw to +-60 degrees (120
+640x480 (``aamcore.evaluation.pose_sweeps.DEFAULT_SWEEPS``): yaw to +-60 degrees (120
 frames), pitch and roll to +-40 (90 frames each), distance 40-120 cm (90);
 ``--sequence DIR`` adds a folder written by ``aamtrack synth --max-angle 60``
 (its video is mp4v-compressed; there pitch and roll go to +-60 too). Landmarks
@@ -53,6 +53,13 @@ import numpy as np
 
 from aamcore import defaults
 from aamcore.ar.glasses_mesh import mean_head_glasses
+from aamcore.evaluation.pose_scores import SweepResult, evaluate_estimator
+from aamcore.evaluation.pose_sweeps import (
+    DEFAULT_SWEEPS,
+    TrackedSweep,
+    sequence_sweeps,
+    tracked_sweeps,
+)
 from aamcore.pose.calibrate import OnlineCalibration
 from aamcore.pose.errors import PoseError
 from aamcore.pose.estimator import Cameras, HeadPoseEstimator
@@ -60,8 +67,6 @@ from aamcore.pose.head_model import openface68
 from aamcore.pose.intrinsics import CameraIntrinsics
 from aamcore.pose.robust import ContourPose
 from aamcore.pose.rotation import rotation_angle_deg, rotation_from_rpy
-from aamcore.pose.sweep_scores import SweepResult, evaluate_estimator
-from aamcore.pose.sweeps import DEFAULT_SWEEPS, TrackedSweep, sequence_sweeps, tracked_sweeps
 from aamcore.synth.head import synth_head
 from aamcore.synth.sequence import PoseTruth, annotated_landmarks
 

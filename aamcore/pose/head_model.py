@@ -369,3 +369,26 @@ def imm73(rigid_subset: bool | str = False, imm_folder: str | Path | None = None
               + (f"; points {off} outside the mesh, nearest-vertex depth" if off else ""))
     model = HeadModel("imm73_surrey", "imm73", 73, np.arange(73), points.copy(), source)
     return _with_subset(model, rigid_subset)
+
+
+def head_model_named(name: str, exact: HeadModel | None = None) -> HeadModel:
+    """A head model by name: ``openface68``, ``openface68-rigid``, ``imm73``, ``exact`` (the
+    model ``exact`` given, e.g. a synthetic sequence's own) or a ``.csv`` file of 68 points.
+
+    Raises
+    ------
+    ValueError
+        For another name, or ``exact`` without a model.
+    """
+    if name == "openface68":
+        return openface68()
+    if name == "openface68-rigid":
+        return openface68(rigid_subset=True)
+    if name == "imm73":
+        return imm73()
+    if name == "exact" and exact is not None:
+        return exact
+    if Path(name).suffix.lower() == ".csv":
+        return load_csv_model(Path(name), "ibug68", 68)
+    raise ValueError(f"unknown model {name!r}: openface68, openface68-rigid, imm73, exact or a "
+                     ".csv")

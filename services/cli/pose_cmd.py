@@ -123,53 +123,15 @@ def run_synth(args: argparse.Namespace) -> int:
     return 0
 
 
-def _model(name: str, exact: HeadModel) -> HeadModel:
-    from aamcore.pose.head_model import imm73, load_csv_model, openface68
-
-    if name == "openface68":
-        return openface68()
-    if name == "openface68-rigid":
-        return openface68(rigid_subset=True)
-    if name == "exact":
-        return exact
-    if name == "imm73":
-        return imm73()
-    path = Path(name)
-    if path.suffix.lower() == ".csv":
-        return load_csv_model(path, "ibug68", 68)
-    raise ValueError(f"unknown model {name!r}: openface68, openface68-rigid, exact or a .csv")
-
-
 def _load_inputs(
     args: argparse.Namespace,
 ) -> tuple[list[np.ndarray], list[Any], CameraIntrinsics, HeadModel, str]:
-    import numpy as np
-
-    from aamcore.pose.head_model import HeadModel
-    from aamcore.pose.intrinsics import CameraIntrinsics
+    from aamcore.evaluation.pose import sequence_inputs
     from aamcore.synth.head import synth_head
-    from aamcore.synth.sequence import exact_landmarks, load_sequence, sweep_poses
+    from aamcore.synth.sequence import exact_landmarks, sweep_poses
 
     if args.sequence is not None:
-        summary, records = load_sequence(args.sequence)
-        intr = summary["intrinsics"]
-        camera = CameraIntrinsics(
-            np.array(intr["camera_matrix"]),
-            np.array(intr["distortion_coefficients"]),
-            intr["image_width"],
-            intr["image_height"],
-            str(args.sequence),
-        )
-        landmarks = [np.array(r["landmarks"]) for r in records]
-        truths = [{"R": r["R"], "T": r["T"]} for r in records]
-        exact = HeadModel(
-            "synth_sequence68",
-            "ibug68",
-            68,
-            np.arange(68),
-            np.array(summary["model_points_mm"]),
-            str(args.sequence),
-        )
+        landmarks, truths, camera, exact = sequence_inputs(args.sequence)
         return landmarks, truths, camera, exact, f"sequence {args.sequence}"
     camera = _camera(args)
     head = synth_head()
@@ -186,7 +148,8 @@ def _load_inputs(
 def run_eval_pose(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from aamcore.pose.evaluation import evaluate_pose_sequence, plot_pose_sequence, posit_vs_sqpnp
+    from aamcore.evaluation.pose import evaluate_pose_sequence, plot_pose_sequence, posit_vs_sqpnp
+    from aamcore.pose.head_model import head_model_named
 
     try:
         noise = [float(x) for x in args.noise.split(",") if x.strip()]
@@ -194,7 +157,7 @@ def run_eval_pose(args: argparse.Namespace) -> int:
         raise ValueError(f"--noise must be comma-separated numbers, got {args.noise!r}") from exc
     landmarks, truths, camera, exact, what = _load_inputs(args)
     comparison = posit_vs_sqpnp(landmarks, truths, camera, exact, noise, args.seed)
-    model = _model(args.model, exact)
+    model = head_model_named(args.model, exact)
     rng = np.random.default_rng(args.seed)
     noisy = [lm + rng.normal(0.0, args.sequence_noise, np.shape(lm)) for lm in landmarks]
     sequence = evaluate_pose_sequence(noisy, truths, camera, model)
@@ -222,14 +185,13 @@ def run_eval_pose(args: argparse.Namespace) -> int:
 def _fitted_sequence(
     args: argparse.Namespace, truths: list[Any], camera: CameraIntrinsics, model: HeadModel
 ) -> dict[str, Any]:
-    """Pose errors of POSIT on tracked AAM fits of the sequence's frames."""
-    from aamcore.evaluation.tracking import track_frames
+    """Pose errors of the estimator on the tracker's landmarks of the sequence's frames."""
+    from aamcore.evaluation.pose import tracked_sequence_errors
     from aamcore.fitting.fitter import Fitter
     from aamcore.fitting.model import FittingModel
     from aamcore.fitting.tracker import Tracker
     from aamcore.fitting.training.prepare import default_model_path
     from aamcore.io.video import video_frames
-    from aamcore.pose.evaluation import evaluate_pose_sequence
     from aamcore.synth.sequence import render_sequence
 
     if args.sequence is not None:
@@ -237,9 +199,7 @@ def _fitted_sequence(
     else:
         frames = (image for image, _, _ in render_sequence(truths, camera))
     tracker = Tracker(Fitter(FittingModel.load(args.fit_model or default_model_path())))
-    landmarks, flagged = track_frames(frames, tracker)
-    result = evaluate_pose_sequence(landmarks, truths, camera, model)
-    return {k: v for k, v in result.items() if k != "per_frame"} | {"failed_fits": flagged}
+    return tracked_sequence_errors(frames, truths, camera, model, tracker)
 
 
 def _print_report(report: dict[str, Any]) -> None:

@@ -122,3 +122,12 @@ def test_openface68_fits_lfpw_annotations(lfpw_dir: Path) -> None:
         size = int(max(s.points.max(axis=0)) * 1.2)
         est = posit.estimate(s.points, CameraIntrinsics.from_fov(size, size, 50.0))
         assert est.reliable, (s.image_path.name, est.reason)
+
+
+def test_head_models_by_name() -> None:
+    from aamcore.pose.head_model import head_model_named
+
+    assert head_model_named("openface68").n_landmarks == 68
+    assert head_model_named("exact", head_model_named("imm73")).name.startswith("imm73")
+    with pytest.raises(ValueError, match="unknown model 'exact'"):
+        head_model_named("exact")

@@ -8,7 +8,7 @@ where it found no face; its output is cached per tracker name and sweep under
 ``<cache>/pose_sweeps/`` so that estimators can be compared again without
 re-tracking. :func:`tracked_sweeps` renders and tracks the bench's sweeps,
 :func:`sequence_sweeps` reads a folder written by ``aamtrack synth`` and
-tracks its video; :mod:`aamcore.pose.sweep_scores` scores estimators on them.
+tracks its video; :mod:`aamcore.evaluation.pose_scores` scores estimators on them.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""aamcore.pose.sweeps: rendered sweeps tracked by a real tracker, cached; synth folders."""
+"""aamcore.evaluation.pose_sweeps: rendered sweeps tracked by a real tracker, cached."""
 
 from __future__ import annotations
 
@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 
 from aamcore import FaceTracker
-from aamcore.pose.intrinsics import CameraIntrinsics
-from aamcore.pose.sweeps import (
+from aamcore.evaluation.pose_sweeps import (
     SweepSpec,
     pack_landmarks,
     sequence_sweeps,
     tracked_sweeps,
     unpack_landmarks,
 )
+from aamcore.pose.intrinsics import CameraIntrinsics
 from aamcore.synth.sequence import synthesize
 
 CAM = CameraIntrinsics.from_fov(320, 240, 60.0)

@@ -4,7 +4,7 @@ An *estimator* is any function ``estimate(landmarks (68, 2), camera) -> PoseLike
 (:class:`aamcore.pose.robust.ContourPose.estimate`, a POSIT on a subset, ...)
 that may raise :class:`~aamcore.pose.errors.PoseError` for bad input.
 :func:`evaluate_estimator` runs one on every frame of some
-:class:`~aamcore.pose.sweeps.TrackedSweep` and gives, per sweep and over all,
+:class:`~aamcore.evaluation.pose_sweeps.TrackedSweep` and gives, per sweep and over all,
 the error statistics of the reliable frames (roll, pitch, yaw in degrees,
 distance in cm), how many frames were flagged or got no pose and why, the
 time per estimate, and the reprojection error of the AR glasses' anchor
@@ -21,11 +21,11 @@ from typing import Protocol
 
 import numpy as np
 
+from aamcore.evaluation.pose import error_statistics, pose_parameters, signed_errors
+from aamcore.evaluation.pose_sweeps import TrackedSweep
 from aamcore.pose.errors import PoseError
-from aamcore.pose.evaluation import error_statistics, pose_parameters, signed_errors
 from aamcore.pose.intrinsics import CameraIntrinsics
 from aamcore.pose.reliability import reason_key
-from aamcore.pose.sweeps import TrackedSweep
 from aamcore.synth.sequence import PoseTruth
 
 

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from aamcore.pose.evaluation import (
+from aamcore.evaluation.pose import (
     evaluate_pose_sequence,
     plot_pose_sequence,
     pose_parameters,

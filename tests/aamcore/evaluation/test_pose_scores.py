@@ -1,4 +1,4 @@
-"""aamcore.pose.sweep_scores: errors, anchors, reasons and timing of real estimators."""
+"""aamcore.evaluation.pose_scores: errors, anchors, reasons and timing of real estimators."""
 
 from __future__ import annotations
 
@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from aamcore.ar.glasses_mesh import mean_head_glasses
+from aamcore.evaluation.pose_scores import anchor_reprojection_px, evaluate_estimator
+from aamcore.evaluation.pose_sweeps import SweepSpec, tracked_sweeps
 from aamcore.pose.calibrate import OnlineCalibration
 from aamcore.pose.intrinsics import CameraIntrinsics
 from aamcore.pose.robust import ContourPose
-from aamcore.pose.sweep_scores import anchor_reprojection_px, evaluate_estimator
-from aamcore.pose.sweeps import SweepSpec, tracked_sweeps
 from aamcore.synth.sequence import PoseTruth
 
 CAM = CameraIntrinsics.from_fov(640, 480, 60.0)

@@ -245,3 +245,32 @@ def plot_pose_sequence(result: dict[str, Any], path: str | Path, title: str = ""
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=100)
     return path
+
+
+def sequence_inputs(folder: Path) -> tuple[list[np.ndarray], list[dict[str, Any]],
+                                           CameraIntrinsics, HeadModel]:
+    """A folder written by ``aamtrack synth``: its exact landmarks (F, 68, 2) per frame, true
+    poses (``{"R", "T"}``), camera and the head model it was rendered with."""
+    from aamcore.synth.sequence import load_sequence
+
+    summary, records = load_sequence(folder)
+    intr = summary["intrinsics"]
+    camera = CameraIntrinsics(np.array(intr["camera_matrix"]),
+                              np.array(intr["distortion_coefficients"]), intr["image_width"],
+                              intr["image_height"], str(folder))
+    exact = HeadModel("synth_sequence68", "ibug68", 68, np.arange(68),
+                      np.array(summary["model_points_mm"]), str(folder))
+    return ([np.array(r["landmarks"]) for r in records],
+            [{"R": r["R"], "T": r["T"]} for r in records], camera, exact)
+
+
+def tracked_sequence_errors(frames: Any, truths: Sequence[Any], camera: CameraIntrinsics,
+                            model: HeadModel, tracker: Any) -> dict[str, Any]:
+    """Pose errors (as :func:`evaluate_pose_sequence`, without the per-frame rows) of the
+    landmarks ``tracker`` (:class:`aamcore.fitting.tracker.Tracker`) finds in ``frames``,
+    and its failed fits."""
+    from aamcore.evaluation.tracking import track_frames
+
+    landmarks, flagged = track_frames(frames, tracker)
+    result = evaluate_pose_sequence(landmarks, truths, camera, model)
+    return {k: v for k, v in result.items() if k != "per_frame"} | {"failed_fits": flagged}
