@@ -5,8 +5,8 @@ Filter for Noisy Input in Interactive Systems": an exponential low-pass
 filter whose cut-off rises with the speed of the signal, so a still face
 stops jittering while a moving one is followed with little lag. Here the
 speed is measured in face sizes per second (:class:`LandmarkSmoother`), so
-the same settings suit a face of any size; rotations are smoothed as
-matrices and projected back onto rotations (:class:`PoseSmoother`).
+the same settings suit a face of any size (the head pose's smoother,
+:class:`aamcore.pose.smoothing.PoseSmoother`, is built on the same filter).
 
 Every smoother starts afresh after :meth:`reset` (a lost face) or when time
 goes backwards or jumps (a cut, a new stream).
@@ -18,8 +18,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from aamcore.pose.rotation import nearest_rotation
 
 MAX_GAP_S = 0.5
 """Seconds between two samples after which a smoother starts afresh."""
@@ -119,20 +117,3 @@ class LandmarkSmoother:
             self.reset()
             return points
         return self(points, t)
-
-
-class PoseSmoother:
-    """One Euro smoothing of a head pose: rotation (3, 3) and translation (3,) in mm."""
-
-    def __init__(self, settings: OneEuroSettings = POSE) -> None:
-        self.rotation = OneEuroFilter(settings)
-        self.translation = OneEuroFilter(settings)
-
-    def reset(self) -> None:
-        self.rotation.reset()
-        self.translation.reset()
-
-    def __call__(self, R: np.ndarray, T: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Smoothed ``(R, T)`` at ``t`` seconds; ``R`` stays a rotation."""
-        R_s = nearest_rotation(self.rotation(R, t))
-        return R_s, self.translation(T, t, HEAD_SIZE_MM)

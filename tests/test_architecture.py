@@ -66,3 +66,129 @@ def test_every_package_folder_is_documented() -> None:
         for folder in sorted(p for p in (REPO_ROOT / package).iterdir()
                              if p.is_dir() and (p / "__init__.py").exists()):
             assert f"{folder.name}/" in text, f"ARCHITECTURE.md misses {package}/{folder.name}/"
+
+
+LAYERS = (
+    ("config", "defaults", "progress", "reproducible", "smoothing"),
+    ("io",),
+    ("warp",),
+    ("model",),
+    ("detection",),
+    ("fitting",),
+    ("pose",),
+    ("expression",),
+    ("ar", "synth"),
+    ("evaluation",),
+    ("profiles",),
+    ("tracker",),
+)
+"""The stages of aamcore from the bottom up, as ARCHITECTURE.md draws them: a module may
+import its own stage and those below, never one above."""
+PENDING = {("io", "tracker"), ("expression", "evaluation")}
+"""Arrows up still to be moved: the tracker's result files out of io, the expression
+benchmark's plots into evaluation."""
+
+
+def _stage(module: str) -> str | None:
+    parts = module.split(".")
+    return parts[1] if parts[0] == "aamcore" and len(parts) > 1 else None
+
+
+def _imports(path: Path) -> list[str]:
+    """Every module ``path`` imports, ``importlib.import_module`` targets of the ALGORITHMS
+    registry included (as written in the file)."""
+    tree = ast.parse(path.read_text())
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            found += [f"{node.module}.{a.name}" for a in node.names]
+        elif isinstance(node, ast.Import):
+            found += [a.name for a in node.names]
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str):
+            target = node.value.split(":")[0]  # "aamcore.fitting.algorithm.x:Class"
+            if target.startswith("aamcore.") and target.count(".") >= 2 and " " not in target:
+                found.append(target)
+    return found
+
+
+def test_the_stages_of_aamcore_import_only_downwards() -> None:
+    rank = {name: k for k, layer in enumerate(LAYERS) for name in layer}
+    assert set(rank) >= {p.stem if p.is_file() else p.name for p in (REPO_ROOT / "aamcore")
+                         .iterdir() if p.name != "__init__.py" and not p.name.startswith("_")
+                         and (p.suffix == ".py" or (p / "__init__.py").exists())}
+    up = set()
+    for path in modules("aamcore"):
+        me = _stage(".".join(path.relative_to(REPO_ROOT).with_suffix("").parts))
+        if me is None or me == "__init__":
+            continue
+        for target in _imports(path):
+            other = _stage(target)
+            if other in rank and me in rank and rank[other] > rank[me]:
+                up.add((me, other, path.relative_to(REPO_ROOT).as_posix()))
+    assert {(a, b) for a, b, _ in up} <= PENDING, sorted(up)
+
+
+def test_no_import_loops_in_the_packages() -> None:
+    names = {}
+    for package in PACKAGES:
+        for path in modules(package):
+            name = ".".join(path.relative_to(REPO_ROOT).with_suffix("").parts)
+            names[name.removesuffix(".__init__")] = path
+    graph = {}
+    for name, path in names.items():
+        targets = set()
+        for target in _imports(path):
+            while target and target not in names:
+                target = target.rpartition(".")[0]
+            if target and target != name and not (name.startswith(target + ".")):
+                targets.add(target)
+        graph[name] = targets
+    loops = [c for c in _cycles(graph) if len(c) > 1]
+    assert not loops, loops
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of ``graph`` (Tarjan, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    out = []
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on.add(root)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = len(index)
+                    stack.append(child)
+                    on.add(child)
+                    work.append((child, iter(sorted(graph.get(child, ())))))
+                elif child in on:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                component = []
+                while True:
+                    member = stack.pop()
+                    on.discard(member)
+                    component.append(member)
+                    if member == node:
+                        break
+                out.append(component)
+    return out
+
+
+def test_the_bus_layer_knows_no_algorithm() -> None:
+    offenders = [str(p.relative_to(REPO_ROOT)) for p in (REPO_ROOT / "services" / "bus")
+                 .rglob("*.py") if "aamcore" in imported(ast.parse(p.read_text()))]
+    assert not offenders, offenders

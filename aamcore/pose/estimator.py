@@ -189,11 +189,11 @@ class HeadPoseTracker:
     ----------
     estimator : HeadPoseEstimator
     smooth : bool
-        Smooth rotation and translation (:class:`aamcore.smoothing.PoseSmoother`).
+        Smooth rotation and translation (:class:`aamcore.pose.smoothing.PoseSmoother`).
     """
 
     def __init__(self, estimator: HeadPoseEstimator, smooth: bool = False) -> None:
-        from aamcore.smoothing import PoseSmoother
+        from aamcore.pose.smoothing import PoseSmoother
 
         self.estimator = estimator
         self.smoother = PoseSmoother() if smooth else None

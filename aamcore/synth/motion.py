@@ -13,7 +13,6 @@ covers (a disc of :data:`PART_RADIUS` of the face's width around it).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -85,14 +84,6 @@ class Sequence:
     occluded: np.ndarray
     covered: np.ndarray
 
-    def write(self, folder: str | Path, fps: float = 30.0) -> Path:
-        """Write ``video.avi`` (lossless) and ``truth.npz`` into ``folder``; the video's path.
-
-        See :func:`aamcore.synth.motion_files.write_sequence`.
-        """
-        from aamcore.synth.motion_files import write_sequence
-
-        return write_sequence(self, folder, fps).video
 
 
 def _smooth_noise(rng: np.random.Generator, n: int, cycles: float) -> np.ndarray:

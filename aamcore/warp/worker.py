@@ -9,7 +9,7 @@ objects (producer-consumer, like the thesis's two mutexes ``glJob`` and
 plus :meth:`GLWarpWorker.set_frame` to upload a video frame once for all the
 iterations of a fit.
 
-:func:`make_warp` picks the GL worker or the CPU warp, falling back to the
+:func:`aamcore.fitting.warps.make_warp` picks the GL worker or the CPU warp, falling back to the
 CPU when no GL context can be made.
 """
 
@@ -18,12 +18,11 @@ from __future__ import annotations
 import logging
 import queue
 import threading
-from typing import Any, Literal, Protocol
+from typing import Any, Protocol
 
 import moderngl
 import numpy as np
 
-from aamcore.model.aam import AAM
 from aamcore.warp.gl import GLWarp
 from aamcore.warp.piecewise_affine import PiecewiseAffineWarp
 from aamcore.warp.reference_frame import ReferenceFrame
@@ -257,52 +256,8 @@ class CPUWarp:
         """Nothing to release on the CPU."""
 
 
-def _log_fallback_once(reason: str) -> None:
+def log_fallback_once(reason: str) -> None:
+    """Log once per process that the GL warp is not used, and why."""
     if reason not in _logged_fallbacks:
         _logged_fallbacks.add(reason)
         logger.warning("GL warp unavailable, using the CPU warp: %s", reason)
-
-
-SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swiftshader", "software")
-"""GL renderers that rasterise on the CPU: there the CPU warp is faster."""
-
-
-def make_warp(
-    aam: AAM, prefer: Literal["auto", "gpu", "cpu"] = "auto", backend: str = "egl"
-) -> tuple[Warp, Literal["gpu", "cpu"]]:
-    """The warp a fitter should use for ``aam``, and which path it is.
-
-    Parameters
-    ----------
-    aam : AAM
-    prefer : {"auto", "gpu", "cpu"}
-        ``"gpu"`` tries a :class:`GLWarpWorker` first and falls back to the
-        CPU warp when no GL context can be made (the reason is logged once per
-        process); ``"cpu"`` uses the CPU warp directly; ``"auto"`` uses the
-        GPU only when the GL renderer is a real GPU, not a software
-        rasteriser such as Mesa's llvmpipe, which warps slower than OpenCV on
-        the same cores.
-    backend : str
-        moderngl standalone backend for the GL context.
-
-    Returns
-    -------
-    warp : GLWarpWorker or CPUWarp
-        Has ``warp(image, shape)``, ``set_frame(image)`` and ``close()``.
-    path : {"gpu", "cpu"}
-    """
-    if prefer not in ("auto", "gpu", "cpu"):
-        raise ValueError(f"prefer must be 'auto', 'gpu' or 'cpu', got {prefer!r}")
-    if prefer in ("auto", "gpu"):
-        try:
-            worker = GLWarpWorker(aam.frame, aam.shape.n_points, backend)
-        except GLUnavailableError as exc:
-            _log_fallback_once(str(exc))
-        else:
-            if prefer == "gpu" or not any(
-                name in worker.renderer.lower() for name in SOFTWARE_RENDERERS
-            ):
-                return worker, "gpu"
-            worker.close()
-            _log_fallback_once(f"software GL renderer {worker.renderer}: the CPU warp is faster")
-    return CPUWarp(aam.warp), "cpu"

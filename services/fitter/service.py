@@ -18,7 +18,7 @@ the texture error, per-landmark occlusion flags): with the default method
 reference frame after the landmarks and projected (``--no-appearance`` leaves
 it out: nothing is warped). The warps run on the GPU worker thread
 (:mod:`aamcore.warp.worker`, started only for a fitter that warps) or the
-CPU (:mod:`aamcore.warp.paths`); each fit names the path its warps took in
+CPU (:mod:`aamcore.fitting.warps`); each fit names the path its warps took in
 ``warp_path`` (``none`` when nothing was warped), and the status counts the
 warps and their time per path. A frame's size belongs to its run: a new run
 starts the tracking afresh, and a frame of another size than its run's first
@@ -40,9 +40,9 @@ from aamcore.fitting.model import FittingModel
 from aamcore.fitting.result import AAMFit, LandmarkFit
 from aamcore.fitting.tracker import Tracker
 from aamcore.fitting.training.prepare import default_model_path
+from aamcore.fitting.warps import FitterWarp
 from aamcore.model.file import ModelFileError
 from aamcore.smoothing import LandmarkSmoother
-from aamcore.warp.paths import FitterWarp
 from aamcore.warp.reference_frame import ReferenceFrame
 from proto import Fit, FitAppearance, Frame, Header, ProtoError
 from services.bus.args import parse_service_args

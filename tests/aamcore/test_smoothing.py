@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from aamcore.pose.rotation import rotation_from_rpy
+from aamcore.pose.smoothing import PoseSmoother
 from aamcore.smoothing import (
     LandmarkSmoother,
     OneEuroFilter,
     OneEuroSettings,
-    PoseSmoother,
 )
 
 FPS = 30.0

@@ -48,7 +48,7 @@ def test_written_sequence_reads_back_exactly(tmp_path: Path) -> None:
 
 def test_sequence_write_keeps_no_spec_and_a_rewrite_replaces(tmp_path: Path) -> None:
     first = sequence(MotionSpec(frames=5, seed=1))
-    assert first.write(tmp_path) == tmp_path / "video.avi"
+    assert write_sequence(first, tmp_path).video == tmp_path / "video.avi"
     truth = read_ground_truth(tmp_path)
     assert truth.spec is None and truth.fps == 30.0 and not truth.occluded.any()
     second = sequence(MotionSpec(frames=3, seed=2))

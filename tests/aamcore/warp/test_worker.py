@@ -8,7 +8,8 @@ import threading
 import numpy as np
 import pytest
 
-from aamcore.warp.worker import CPUWarp, GLUnavailableError, GLWarpWorker, make_warp
+from aamcore.fitting.warps import make_warp
+from aamcore.warp.worker import CPUWarp, GLUnavailableError, GLWarpWorker
 
 MEAN_DIFF = 0.5  # grey levels; see test_gl_warp.py
 
@@ -123,7 +124,6 @@ def test_make_warp_falls_back_to_the_cpu(imm_model, caplog: pytest.LogCaptureFix
 
 
 def test_auto_uses_the_cpu_on_a_software_renderer(imm_model) -> None:
-    from aamcore.warp.worker import make_warp
 
     warp, path = make_warp(imm_model, "auto")
     try:

@@ -14,8 +14,8 @@ from aamcore.detection.haar import HaarFaceDetector
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
 from aamcore.fitting.result import AAMFit, LandmarkFit
+from aamcore.fitting.warps import FitterWarp
 from aamcore.model.similarity import Similarity
-from aamcore.warp.paths import FitterWarp
 from aamcore.warp.reference_frame import ReferenceFrame
 from proto import Header, decode, encode
 from services.bus.connection import BusOptions

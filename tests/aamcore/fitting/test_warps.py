@@ -1,4 +1,4 @@
-"""aamcore.warp.paths: the fitter's warp, made when something warps, counted per path."""
+"""aamcore.fitting.warps: the fitter's warp, made when something warps, counted per path."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from aamcore.warp.paths import FitterWarp
+from aamcore.fitting.warps import FitterWarp
 
 
 @pytest.fixture(scope="module")

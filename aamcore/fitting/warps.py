@@ -4,7 +4,7 @@
 makes nothing until it is :meth:`~FitterWarp.start`-ed (the fitter service
 starts it only for a fitter that warps) or first called, so a stack whose
 fitter never samples a texture never creates a GL context. It then warps on
-the path :func:`aamcore.warp.worker.make_warp` chooses, counts every warp and
+the path :func:`make_warp` chooses, counts every warp and
 its time by path, and tells after each fit which path the fit's warps took
 (``none`` for a fit that warped nothing). A GL warp that fails mid-run (the
 GL thread died, the context was lost) is logged once and the warps go on on
@@ -20,7 +20,13 @@ from typing import Literal
 import numpy as np
 
 from aamcore.model.aam import AAM
-from aamcore.warp.worker import GLWarpWorker, Warp, make_warp
+from aamcore.warp.worker import (
+    CPUWarp,
+    GLUnavailableError,
+    GLWarpWorker,
+    Warp,
+    log_fallback_once,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -35,7 +41,7 @@ class FitterWarp:
     ----------
     aam : AAM
     prefer : {"auto", "gpu", "cpu"}
-        As :func:`~aamcore.warp.worker.make_warp` takes it.
+        As :func:`make_warp` takes it.
     backend : str
         moderngl standalone backend for the GL context.
 
@@ -148,3 +154,48 @@ class FitterWarp:
         """Release the GL worker, if one was made."""
         if self._warp is not None:
             self._warp.close()
+
+
+SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swiftshader", "software")
+"""GL renderers that rasterise on the CPU: there the CPU warp is faster."""
+
+
+def make_warp(
+    aam: AAM, prefer: Literal["auto", "gpu", "cpu"] = "auto", backend: str = "egl"
+) -> tuple[Warp, Literal["gpu", "cpu"]]:
+    """The warp a fitter should use for ``aam``, and which path it is.
+
+    Parameters
+    ----------
+    aam : AAM
+    prefer : {"auto", "gpu", "cpu"}
+        ``"gpu"`` tries a :class:`GLWarpWorker` first and falls back to the
+        CPU warp when no GL context can be made (the reason is logged once per
+        process); ``"cpu"`` uses the CPU warp directly; ``"auto"`` uses the
+        GPU only when the GL renderer is a real GPU, not a software
+        rasteriser such as Mesa's llvmpipe, which warps slower than OpenCV on
+        the same cores.
+    backend : str
+        moderngl standalone backend for the GL context.
+
+    Returns
+    -------
+    warp : GLWarpWorker or CPUWarp
+        Has ``warp(image, shape)``, ``set_frame(image)`` and ``close()``.
+    path : {"gpu", "cpu"}
+    """
+    if prefer not in ("auto", "gpu", "cpu"):
+        raise ValueError(f"prefer must be 'auto', 'gpu' or 'cpu', got {prefer!r}")
+    if prefer in ("auto", "gpu"):
+        try:
+            worker = GLWarpWorker(aam.frame, aam.shape.n_points, backend)
+        except GLUnavailableError as exc:
+            log_fallback_once(str(exc))
+        else:
+            if prefer == "gpu" or not any(
+                name in worker.renderer.lower() for name in SOFTWARE_RENDERERS
+            ):
+                return worker, "gpu"
+            worker.close()
+            log_fallback_once(f"software GL renderer {worker.renderer}: the CPU warp is faster")
+    return CPUWarp(aam.warp), "cpu"
