@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 
 from aamcore.config import data_root
-from aamcore.pose.align import similarity_transform
+from aamcore.pose.align import align_points
 from aamcore.pose.errors import PoseError
 from aamcore.pose.head_model import openface68
 from aamcore.pose.intrinsics import CameraIntrinsics
@@ -50,7 +50,7 @@ def _eos_assets() -> dict[str, Any]:
     vertex_of = surrey_ibug_vertices(len(mean))
     mapped = sorted(vertex_of)
     ref = openface68().points
-    to_ref = similarity_transform(mean[[vertex_of[i] for i in mapped]], ref[mapped])
+    to_ref = align_points(mean[[vertex_of[i] for i in mapped]], ref[mapped])
     return {
         "eos": eos,
         "model": morphable,

@@ -9,7 +9,7 @@ import numpy as np
 from posit_poses import CAMERA, Truth, errors, random_pose
 
 from aamcore.config import data_root
-from aamcore.pose.align import similarity_transform
+from aamcore.pose.align import align_points
 from aamcore.pose.head_model import RECOMMENDED_SUBSET, SUBSETS, HeadModel, imm73, openface68
 from aamcore.pose.mesh import Mesh, SurfacePoints, lift_frontal, surrey_ibug_vertices
 
@@ -67,7 +67,7 @@ class SurreyFaces:
         ref = openface68().points
         vertex_of = surrey_ibug_vertices(len(mean))
         mapped = sorted(vertex_of)
-        self.to_ref = similarity_transform(mean[[vertex_of[i] for i in mapped]], ref[mapped])
+        self.to_ref = align_points(mean[[vertex_of[i] for i in mapped]], ref[mapped])
         self.mesh = Mesh(self.to_ref.apply(mean), triangles, None, "surrey3448")
         edges = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
         uniq, counts = np.unique(edges, axis=0, return_counts=True)

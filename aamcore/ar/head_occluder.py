@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aamcore.ar.mesh_primitives import TriMesh, concatenate, ellipsoid
-from aamcore.pose.align import similarity_transform
+from aamcore.pose.align import align_points
 from aamcore.pose.mesh import mediapipe_canonical_mesh
 
 MEDIAPIPE_TO_IBUG: dict[int, int] = {
@@ -82,7 +82,7 @@ def place_face_mesh(
     """
     src = vertices[list(MEDIAPIPE_TO_IBUG)]
     dst = landmarks[list(MEDIAPIPE_TO_IBUG.values())]
-    fit = similarity_transform(src, dst)
+    fit = align_points(src, dst)
     rms = float(np.sqrt(np.mean(np.sum((fit.apply(src) - dst) ** 2, axis=1))))
     return fit.apply(vertices), rms
 

@@ -27,7 +27,6 @@ import numpy as np
 
 from aamcore.detection.boxes import as_box, landmark_box, match_detection
 from aamcore.io.landmarks import as_points
-from aamcore.model.procrustes import align_similarity
 from aamcore.model.similarity import Similarity
 
 BoxSource = Literal["detector", "landmarks"]
@@ -68,7 +67,7 @@ def similarity_onto(
     if pts.shape != ref.shape:
         raise ValueError(f"points shape {pts.shape} differs from reference {ref.shape}")
     if with_rotation:
-        return align_similarity(ref, pts)
+        return Similarity.from_estimate(ref, pts)
     # With the reference centred, t is the centroid and s the projection of points on ref.
     t = pts.mean(axis=0)
     return Similarity(float(np.sum(ref * (pts - t)) / np.sum(ref**2)), 0.0, float(t[0]),

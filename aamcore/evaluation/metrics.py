@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from aamcore.io.landmarks import LandmarkScheme, as_points
-from aamcore.model.procrustes import align_similarity
+from aamcore.model.similarity import Similarity
 
 FAILURE_THRESHOLDS: tuple[float, float] = (0.08, 0.10)
 """NME above which a fit counts as a failure, as commonly reported."""
@@ -135,7 +135,7 @@ def procrustes_align(source: np.ndarray, target: np.ndarray) -> np.ndarray:
         If ``source`` has all its points at one place.
     """
     src, tgt = _pair(source, target)
-    return align_similarity(src, tgt).apply(src)
+    return Similarity.from_estimate(src, tgt).apply(src)
 
 
 def procrustes_distance(fit: np.ndarray, gt: np.ndarray) -> float:

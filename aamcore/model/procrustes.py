@@ -35,29 +35,9 @@ def rotation_to(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     return u @ np.diag([1.0, d]) @ vt
 
 
-def align_similarity(source: np.ndarray, target: np.ndarray) -> Similarity:
-    """Least-squares similarity mapping ``source`` (N, 2) onto ``target`` (N, 2).
-
-    In 2D the optimum has a closed form (thesis eqs. 3.9, 3.10): with both
-    shapes centred, ``a = sum(x x' + y y') / |x|^2`` and
-    ``b = sum(x y' - y x') / |x|^2`` give ``scale R = [[a, -b], [b, a]]``;
-    it is the same transform as Algorithm 1's SVD, without the SVD.
-    """
-    mu_s, mu_t = source.mean(axis=0), target.mean(axis=0)
-    s_c, t_c = source - mu_s, target - mu_t
-    denom = float(np.sum(s_c * s_c))
-    if denom == 0:
-        raise ValueError("degenerate source shape: all points coincide")
-    a = float(np.sum(s_c * t_c)) / denom
-    b = float(np.sum(s_c[:, 0] * t_c[:, 1] - s_c[:, 1] * t_c[:, 0])) / denom
-    tx = float(mu_t[0] - a * mu_s[0] + b * mu_s[1])
-    ty = float(mu_t[1] - b * mu_s[0] - a * mu_s[1])
-    return Similarity(a, b, tx, ty)
-
-
 def procrustes_distance(a: np.ndarray, b: np.ndarray) -> float:
     """Procrustes distance (eq. 3.2) between ``a`` aligned onto ``b``, both (N, 2)."""
-    aligned = align_similarity(a, b).apply(a)
+    aligned = Similarity.from_estimate(a, b).apply(a)
     return float(np.sqrt(np.sum((aligned - b) ** 2)))
 
 

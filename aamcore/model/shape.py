@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aamcore.model.pca import PCA, fit_pca
-from aamcore.model.procrustes import align_similarity, generalised_procrustes
+from aamcore.model.procrustes import generalised_procrustes
 from aamcore.model.similarity import Similarity
 
 
@@ -78,6 +78,6 @@ class ShapeModel:
         b = np.zeros(self.n_modes)
         sim = Similarity()
         for _ in range(iterations):
-            sim = align_similarity(self.instance(b), points)
+            sim = Similarity.from_estimate(self.instance(b), points)
             b = self.params(sim.inverse().apply(points))
         return b, sim

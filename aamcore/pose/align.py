@@ -1,4 +1,6 @@
-"""Similarity alignment of corresponding point sets (Umeyama's least squares)."""
+"""Alignment of corresponding point sets in 2 or 3 dimensions: scale, rotation and
+translation by Umeyama's least squares (the 2D image placements of shapes are
+:class:`aamcore.model.similarity.Similarity`)."""
 
 from __future__ import annotations
 
@@ -8,7 +10,7 @@ import numpy as np
 
 
 @dataclass(frozen=True, eq=False)
-class Similarity:
+class PointAlignment:
     """``x -> scale * R @ x + t`` in 2 or 3 dimensions.
 
     Attributes
@@ -28,10 +30,10 @@ class Similarity:
         return self.scale * np.asarray(points) @ self.R.T + self.t
 
 
-def similarity_transform(
+def align_points(
     src: np.ndarray, dst: np.ndarray, with_scale: bool = True
-) -> Similarity:
-    """The similarity that best maps ``src`` onto ``dst`` in the least-squares sense.
+) -> PointAlignment:
+    """The alignment that best maps ``src`` onto ``dst`` in the least-squares sense.
 
     Parameters
     ----------
@@ -62,4 +64,4 @@ def similarity_transform(
         d[-1] = -1.0
     R = u @ np.diag(d) @ vt
     scale = float(sv @ d) / var_s if with_scale else 1.0
-    return Similarity(scale, R, mu_d - scale * R @ mu_s)
+    return PointAlignment(scale, R, mu_d - scale * R @ mu_s)

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from aamcore.pose.align import similarity_transform
+from aamcore.pose.align import align_points
 from aamcore.pose.errors import PoseError
 from aamcore.pose.head_model import HeadModel, openface68
 from aamcore.pose.intrinsics import CameraIntrinsics
@@ -173,7 +173,7 @@ def refine_model(
     for _ in range(settings.rounds):
         X = triangulate(list(frames.values()), inner, X, X0, settings.prior_mm,
                         settings.noise_px)
-        X = similarity_transform(X, X0).apply(X)  # back into the mean model's frame and size
+        X = align_points(X, X0).apply(X)  # back into the mean model's frame and size
         if not np.all(np.isfinite(X)):
             raise PoseError("the refined head model is not finite")
         points = mean.X.copy()

@@ -25,7 +25,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from aamcore.pose.align import similarity_transform
+from aamcore.pose.align import align_points
 from aamcore.pose.mesh import Mesh, surrey_ibug_vertices, surrey_reference_mesh
 
 JAW = tuple(range(17))
@@ -265,7 +265,7 @@ def surrey_on(reference: np.ndarray) -> Mesh:
     mesh = surrey_reference_mesh()
     vertex_of = surrey_ibug_vertices(len(mesh.vertices))
     mapped = sorted(vertex_of)
-    to_ref = similarity_transform(mesh.vertices[[vertex_of[i] for i in mapped]],
+    to_ref = align_points(mesh.vertices[[vertex_of[i] for i in mapped]],
                                   reference[mapped])
     return Mesh(to_ref.apply(mesh.vertices), mesh.triangles, mesh.uvs, "surrey_placed")
 

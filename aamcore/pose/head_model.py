@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from aamcore.config import data_root
-from aamcore.pose.align import similarity_transform
+from aamcore.pose.align import align_points
 from aamcore.pose.errors import PoseError
 from aamcore.pose.mesh import Mesh, lift_frontal, surrey_ibug_vertices, surrey_reference_mesh
 from aamcore.pose.posit import Posit
@@ -281,9 +281,9 @@ def _imm_mean_shape(folder: Path) -> np.ndarray:
         raise PoseError(f"{folder}: no 73-point IMM annotations")
     mean = shapes[0]
     for _ in range(5):
-        aligned = [similarity_transform(s, mean).apply(s) for s in shapes]
+        aligned = [align_points(s, mean).apply(s) for s in shapes]
         new_mean = np.mean(aligned, axis=0)
-        new_mean = similarity_transform(new_mean, shapes[0]).apply(new_mean)
+        new_mean = align_points(new_mean, shapes[0]).apply(new_mean)
         if np.max(np.abs(new_mean - mean)) < 1e-6:
             break
         mean = new_mean
@@ -314,11 +314,11 @@ def _imm73_points(folder: str) -> tuple[np.ndarray, np.ndarray]:
     mesh = surrey_reference_mesh()
     vertex_of = surrey_ibug_vertices(len(mesh.vertices))
     ibug = sorted(vertex_of)
-    to_ref = similarity_transform(mesh.vertices[[vertex_of[i] for i in ibug]], ref[ibug])
+    to_ref = align_points(mesh.vertices[[vertex_of[i] for i in ibug]], ref[ibug])
     mesh = Mesh(to_ref.apply(mesh.vertices), mesh.triangles, mesh.uvs, mesh.name)
     mean2d = _imm_mean_shape(Path(folder))
     imm_idx = list(_IMM_ANCHORS)
-    to_ref2d = similarity_transform(mean2d[imm_idx], ref[[_IMM_ANCHORS[i] for i in imm_idx], :2])
+    to_ref2d = align_points(mean2d[imm_idx], ref[[_IMM_ANCHORS[i] for i in imm_idx], :2])
     xy = to_ref2d.apply(mean2d)
     surface = lift_frontal(mesh, xy)
     points = surface.positions(mesh)

@@ -18,7 +18,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from aamcore.pose.align import similarity_transform
+from aamcore.pose.align import align_points
 from aamcore.pose.contour import OutlineModel, build_outline_model
 from aamcore.pose.head_model import HeadModel, openface68
 from aamcore.pose.mesh import Mesh, SurfacePoints, lift_frontal, mediapipe_canonical_mesh
@@ -77,6 +77,6 @@ def synth_head() -> SynthHead:
     source = mediapipe_canonical_mesh()
     ref = openface68().points
     ibug = list(MEDIAPIPE_ANCHORS)
-    to_ref = similarity_transform(source.vertices[[MEDIAPIPE_ANCHORS[i] for i in ibug]], ref[ibug])
+    to_ref = align_points(source.vertices[[MEDIAPIPE_ANCHORS[i] for i in ibug]], ref[ibug])
     mesh = Mesh(to_ref.apply(source.vertices), source.triangles, source.uvs, "mediapipe_canonical")
     return SynthHead(mesh, lift_frontal(mesh, ref[:, :2]))

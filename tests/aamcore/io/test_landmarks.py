@@ -9,7 +9,8 @@ import pytest
 from aamcore.config import resolve_dataset
 from aamcore.io import load_annotated_folder
 from aamcore.io.landmarks import IBUG68, IBUG68_MIRROR, mirror_points
-from aamcore.model.procrustes import align_similarity, generalised_procrustes
+from aamcore.model.procrustes import generalised_procrustes
+from aamcore.model.similarity import Similarity
 
 MIDLINE = {8, 27, 28, 29, 30, 33, 51, 57, 62, 66}
 
@@ -68,7 +69,7 @@ def _mean_shape_error(permutation: np.ndarray) -> float:
                          for p, w in zip(shapes, widths, strict=True)])
     _, mean, _ = generalised_procrustes(shapes)
     _, mean_m, _ = generalised_procrustes(mirrored)
-    aligned = align_similarity(mean_m, mean).apply(mean_m)
+    aligned = Similarity.from_estimate(mean_m, mean).apply(mean_m)
     return float(np.max(np.linalg.norm(mean - aligned, axis=1))
                  / np.linalg.norm(mean[36] - mean[45]))
 

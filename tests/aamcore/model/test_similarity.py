@@ -42,3 +42,21 @@ def test_inverse_and_composition() -> None:
 def test_scaled_is_the_placement_in_a_scaled_image() -> None:
     sim = Similarity(1.2, 0.4, 10.0, -6.0)
     np.testing.assert_allclose(sim.scaled(0.5).apply(POINTS), 0.5 * sim.apply(POINTS))
+
+
+def test_a_placement_is_the_estimate_of_its_reference_on_each_shape() -> None:
+    from aamcore.model.similarity import Placement
+
+    rng = np.random.default_rng(3)
+    reference = rng.normal(size=(20, 2)) + 5.0
+    truths = [Similarity.from_scale_angle(s, a, t) for s, a, t in
+              [(0.5, 0.3, (3, -2)), (2.0, -1.0, (10, 4)), (1.3, 2.5, (0, 0))]]
+    shapes = np.stack([t.apply(reference) + rng.normal(0, 0.01, (20, 2)) for t in truths])
+    placement = Placement(reference)
+    ab = placement.ab(shapes)
+    for k, shape in enumerate(shapes):
+        estimate = Similarity.from_estimate(reference, shape)
+        np.testing.assert_allclose(ab[k], [estimate.a, estimate.b], atol=1e-12)
+        onto = placement.onto(shape)
+        np.testing.assert_allclose(onto.matrix, estimate.matrix, atol=1e-9)
+        np.testing.assert_allclose(onto.matrix, truths[k].matrix, atol=0.05)
