@@ -9,7 +9,8 @@ from __future__ import annotations
 
 ALGORITHM = "local-binary"
 """The fitting algorithm: landmark-HOG and fern stages in a shape space, the most accurate
-on in-the-wild faces and the fastest to track (``PORT_REPORT.md``)."""
+on in-the-wild faces and the fastest to track (``bench/bench_fit_lfpw.py``,
+``bench/bench_fit_speed.py``)."""
 FAILURE_TEST = "auto"
 """How a failed fit is recognised: ``auto`` is the learned quality score for
 ``local-binary`` and ``chi2`` on the appearance for the AAM methods (see
@@ -46,4 +47,4 @@ matches the jaw landmarks to the outline seen (:class:`aamcore.pose.robust.Conto
 to the person (:class:`aamcore.pose.calibrate.OnlineCalibration`)."""
 POSE_ESTIMATOR = "contour"
 """The head-pose estimator of the stack and the library: it holds to +-60 degrees of yaw
-where POSIT's jaw points mislead it (bench/bench_pose_yaw.py, PORT_REPORT.md)."""
+where POSIT's jaw points mislead it (``bench/bench_pose_yaw.py``)."""

@@ -34,13 +34,13 @@ from aamcore.fitting.model import FittingModel
 from aamcore.fitting.result import AAMFit, LandmarkFit, appearance_of
 from aamcore.fitting.search import SearchSchedule
 from aamcore.fitting.tracker import Tracker
+from aamcore.io.video import FALLBACK_FPS, frame_rate
 from aamcore.model.similarity import Similarity
 from aamcore.pose import IntrinsicsError, PoseError
 from aamcore.pose.estimator import Cameras, HeadPose, HeadPoseEstimator, HeadPoseTracker
 from aamcore.profiles import profile_named
 from aamcore.smoothing import LandmarkSmoother
 
-DEFAULT_FPS = 30.0
 """Frame rate assumed for timestamps when :meth:`FaceTracker.process` is given none."""
 NO_FACE = "no face"
 
@@ -245,7 +245,7 @@ class FaceTracker:
         """The result for one frame (BGR or grey uint8), at ``timestamp`` seconds."""
         index = self.frames
         self.frames += 1
-        t = index / DEFAULT_FPS if timestamp is None else float(timestamp)
+        t = index / FALLBACK_FPS if timestamp is None else float(timestamp)
         fit = self.tracker.track(frame)
         if fit is None:
             self.pose.reset()
@@ -289,8 +289,7 @@ class FaceTracker:
         capture = cv2.VideoCapture(str(path))
         if not capture.isOpened():
             raise OSError(f"{path}: not a video OpenCV can open")
-        fps = capture.get(cv2.CAP_PROP_FPS) or DEFAULT_FPS
-        fps = fps if 1.0 <= fps <= 1000.0 else DEFAULT_FPS
+        fps = frame_rate(capture)
         self.reset()
         self.frames = 0
         try:

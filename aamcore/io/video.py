@@ -7,6 +7,16 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+FALLBACK_FPS = 30.0
+"""The frame rate of a video that states none (or an impossible one)."""
+
+
+def frame_rate(capture: cv2.VideoCapture) -> float:
+    """The frame rate an opened capture states, or :data:`FALLBACK_FPS` when it states none
+    from 1 to 1000."""
+    fps = float(capture.get(cv2.CAP_PROP_FPS) or 0.0)
+    return fps if 1.0 <= fps <= 1000.0 else FALLBACK_FPS
+
 
 def video_frames(path: str | Path) -> list[np.ndarray]:
     """Every frame of a video file, BGR.

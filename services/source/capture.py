@@ -17,12 +17,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from aamcore.io.video import frame_rate
 from proto.limits import MAX_IMAGE_HEIGHT, MAX_IMAGE_PIXELS, MAX_IMAGE_WIDTH
 from services.source.options import URL_PREFIXES, SourceOptions
 
 OPEN_TIMEOUT_MS = 5000
 """How long a stream URL may take to answer when opened or read."""
-FALLBACK_FPS = 30.0
 
 
 class SourceError(RuntimeError):
@@ -119,8 +119,7 @@ class VideoInput:
         if problem:
             self._cap.release()
             raise SourceError(f"{spec.describe()}: {problem}")
-        fps = float(self._cap.get(cv2.CAP_PROP_FPS) or 0.0)
-        self.fps = fps if 1.0 <= fps <= 1000.0 else FALLBACK_FPS
+        self.fps = frame_rate(self._cap)
         self.read_errors = 0
 
     def frames(self) -> Iterator[np.ndarray]:

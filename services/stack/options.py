@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from aamcore.profiles import PROFILES, Profile, profile_named
-from services.bus.connection import BusOptions
+from services.bus.connection import DEFAULT_STREAM, BusOptions
 from services.bus.options import (
     OptionError,
     Options,
@@ -57,7 +57,7 @@ class LaunchOptions(Options):
                           "expression) or thesis (fixed-Jacobian AAM, eq. 7.2, POSIT, LDA + "
                           "Mahalanobis on c); options given beside it override its choices",
                           choices=tuple(PROFILES))
-    stream: str = option("cam0", "stream id")
+    stream: str = option(DEFAULT_STREAM, "stream id")
     endpoint: str | None = option(None, "zenoh endpoint the stack listens on, for other "
                                   "programs to connect to (default: a Unix socket only this "
                                   "user can open, <private folder>/<stream>.sock; "

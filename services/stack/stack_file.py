@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from proto.zenoh_config import MODES
-from services.bus.connection import BusOptions
+from services.bus.connection import DEFAULT_STREAM, BusOptions
 from services.bus.options import OptionError, Options, options_of_mapping
 from services.stack.registry import SERVICES
 
@@ -133,5 +133,5 @@ def read_stack_file(path: str | Path) -> StackFile:
                                  f"{where} [services.{name}]")
         for name in SERVICES if name in named
     }
-    stream = str(bus.get("stream", "cam0"))
+    stream = str(bus.get("stream", DEFAULT_STREAM))
     return StackFile(stream, str(bus.get("router", "")), hosts, services)
