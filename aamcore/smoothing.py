@@ -15,10 +15,13 @@ goes backwards or jumps (a cut, a new stream).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any, TypeVar
 
 import numpy as np
 
+F = TypeVar("F", bound=Any)
+"""A fit: a dataclass with ``points`` (N, 2) and ``ok``."""
 MAX_GAP_S = 0.5
 """Seconds between two samples after which a smoother starts afresh."""
 
@@ -117,3 +120,11 @@ class LandmarkSmoother:
             self.reset()
             return points
         return self(points, t)
+
+    def smoothed(self, fit: F | None, t: float) -> F | None:
+        """A frame's fit with its landmarks smoothed (a copy: the tracker goes on from the raw
+        fit), as the library and the fitter service both smooth; None (no face) resets."""
+        if fit is None:
+            self.reset()
+            return None
+        return replace(fit, points=self.update(fit.points, t, fit.ok))

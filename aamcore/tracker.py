@@ -247,15 +247,13 @@ class FaceTracker:
         self.frames += 1
         t = index / FALLBACK_FPS if timestamp is None else float(timestamp)
         fit = self.tracker.track(frame)
-        if fit is None:
+        smoothed = fit if self.landmarks is None else self.landmarks.smoothed(fit, t)
+        if fit is None or smoothed is None:
             self.pose.reset()
-            if self.landmarks is not None:
-                self.landmarks.reset()
             found = self.recognise(index, frame, None, None)
             return FaceResult(index, t, False, 0.0, np.zeros((0, 2)), reason=NO_FACE,
                               expression_reason=found.reason if found else "")
-        points = (fit.points if self.landmarks is None
-                  else self.landmarks.update(fit.points, t, fit.ok))
+        points = smoothed.points
         try:
             pose, why = self.pose.update(points, frame.shape[1], frame.shape[0], t,
                                          fit.failed), ""

@@ -30,7 +30,6 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -141,12 +140,7 @@ class FrameTracker:
         result = self.tracker.track(image)
         warp_path = self.warp.take_path()
         if self.smoother is not None:
-            if result is None:
-                self.smoother.reset()
-            else:
-                t = frame.header.media_time_ns / 1e9
-                # A copy: the tracker goes on from the raw fit, as the library's does.
-                result = replace(result, points=self.smoother.update(result.points, t, result.ok))
+            result = self.smoother.smoothed(result, frame.header.media_time_ns / 1e9)
         return fit_message(self.svc.header_for(frame), result, self.scheme, warp_path,
                            self._size, self.frame)
 
