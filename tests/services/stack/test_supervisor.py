@@ -39,14 +39,20 @@ def test_a_service_that_finishes_is_not_restarted() -> None:
     assert sup.exitcode("source") == 0 and sup.restarts("source") == 0 and not sup.failed()
 
 
-def test_stop_terminates_running_services_cleanly() -> None:
+def test_stop_terminates_running_services_cleanly(tmp_path) -> None:
+    from services.bus.connection import BusOptions
+    from services.bus.session import Service
+
+    endpoint = f"unixsock-stream/{tmp_path / 'detector.sock'}"
     sup = Supervisor([ServiceSpec("detector", SERVICES["detector"].module,
-                                  ["--stream", "supervised"])])
+                                  ["--stream", "supervised", "--listen", endpoint])])
     sup.start()
-    wait_until(lambda: sup.alive("detector"))
-    time.sleep(1.0)  # let it open its session
-    started = time.monotonic()
-    assert sup.stop(timeout=10) == {"detector": 0}
+    probe = BusOptions("supervised", connect=(endpoint,))
+    with Service("probe", probe, handle_signals=False, announce=False) as svc:
+        # Running, its stop handling in place: not a process still importing.
+        assert svc.wait_for_alive(["detector"], 60) == []
+        started = time.monotonic()
+        assert sup.stop(timeout=10) == {"detector": 0}
     assert time.monotonic() - started < 10
 
 
