@@ -141,7 +141,8 @@ def _model(model: str | Path | FittingModel | None) -> tuple[FittingModel, Path 
 
 
 def _recogniser(classifier: str | Path | ExpressionClassifier | None, model: FittingModel,
-                path: Path | None, algorithm: str, smooth: int) -> ExpressionRecogniser | None:
+                path: Path | None, algorithm: str, smooth: int, hold: int = 0
+                ) -> ExpressionRecogniser | None:
     """The expression recogniser of a classifier for the fits of ``model`` by ``algorithm``,
     or None without one.
 
@@ -160,7 +161,7 @@ def _recogniser(classifier: str | Path | ExpressionClassifier | None, model: Fit
         check_made_for(classifier, model_fingerprint(path), algorithm)
     aam = model.aam
     classifier.check_fit(aam.scheme.name, aam.scheme.n_points, aam.n_appearance)
-    return ExpressionRecogniser(classifier, smooth)
+    return ExpressionRecogniser(classifier, smooth, hold=hold)
 
 
 class FaceTracker:
@@ -194,8 +195,12 @@ class FaceTracker:
         One of :data:`aamcore.defaults.POSE_ESTIMATORS`
         (:class:`~aamcore.pose.estimator.HeadPoseEstimator`).
     expression_smooth : int
-        Average the expression scores over this many classified frames (the
+        Average the expression probabilities over this many classified frames (the
         expression service's ``--smooth``; 1: none).
+    expression_hold : int
+        Classified frames a new expression label must lead before it replaces the one
+        shown (the expression service's ``--hold``, on in the stack,
+        :data:`~aamcore.expression.recogniser.STACK_HOLD`; 0: none).
     fitter : FitterConfig, optional
         The whole fitting configuration (``algorithm`` and ``failure_test`` override it).
     search : SearchSchedule, optional
@@ -208,7 +213,8 @@ class FaceTracker:
                  camera: str | float | None = None, *, profile: str | None = None,
                  algorithm: str | None = None, failure_test: str | None = None,
                  smoothing: bool = False, pose_estimator: str | None = None,
-                 expression_smooth: int = 1, fitter: FitterConfig | None = None,
+                 expression_smooth: int = 1, expression_hold: int = 0,
+                 fitter: FitterConfig | None = None,
                  search: SearchSchedule | None = None) -> None:
         chosen = profile_named(profile) if profile else None
         config = fitter or (chosen.fitter if chosen else FITTER)
@@ -222,7 +228,7 @@ class FaceTracker:
         if classifier is None and chosen is not None and path is not None:
             classifier = chosen.classifier_path(path, config.algorithm)
         self.expression = _recogniser(classifier or None, self.model, path,  # type: ignore
-                                      config.algorithm, expression_smooth)
+                                      config.algorithm, expression_smooth, expression_hold)
         self.tracker = Tracker(Fitter.from_config(self.model, config), HaarFaceDetector(),
                                search)
         calibration = camera if isinstance(camera, str | Path) else None

@@ -135,6 +135,7 @@ def golden_messages() -> dict[str, kinds.Message]:
             class_names=("neutral", "happy", "sad", "surprise", "anger", "disgust", "fear"),
             scores=np.array([4, 45, 3, 5, 2, 3, 2]) / 64,
             smoothed=True,
+            reason="",
         ),
         kinds.Overlay.from_jpeg(_header("ar"), GREY_JPEG_8X8, width=8, height=8),
         _status(),

@@ -220,33 +220,50 @@ class HeadPose(Message):
 
 @dataclass(frozen=True, eq=False)
 class Expression(Message):
-    """The facial expression recognised in one frame.
+    """The facial expression recognised in one frame, or why there is none.
+
+    Every fit gets one: a frame without a label (no face, a face the quality gate
+    refuses, no classifier) has an empty ``label``, no ``scores`` and its ``reason``.
 
     Parameters
     ----------
     label : str
-        The recognised class, one of ``class_names``.
+        The recognised class, one of ``class_names``; empty without one.
     class_names : tuple of str
         All classes, distinct (a list on the wire).
     scores : numpy.ndarray
-        ``(C,)`` float32 score of each class, in the order of ``class_names``.
+        ``(C,)`` float32 probability of each class, in the order of ``class_names``,
+        summing to 1 (calibrated on held-out faces); ``(0,)`` without a label.
     smoothed : bool
-        Whether the label was smoothed over recent frames.
+        Whether the label was smoothed or held over recent frames.
+    reason : str
+        Why there is no label, ``"<key>: <details>"``; empty exactly when there is one.
     """
 
     KIND: ClassVar[str] = "expression"
-    label: str = spec(NAME)
+    label: str = spec(Str())
     class_names: tuple[str, ...] = spec(StrList())
     scores: np.ndarray = small("f4", None)
     smoothed: bool = spec(Bool())
+    reason: str = spec(Str())
 
     def _check(self) -> None:
+        if bool(self.label) == bool(self.reason):
+            raise ProtoError("expression.reason: must be non-empty exactly when label is empty "
+                             f"(label={self.label!r}, reason={self.reason!r})")
+        if not self.label:
+            if len(self.scores):
+                raise ProtoError("expression.scores: a frame without a label has no scores")
+            return
         if self.label not in self.class_names:
             raise ProtoError(f"expression.label: {self.label!r} is not in class_names")
         if len(self.scores) != len(self.class_names):
             raise ProtoError(
                 f"expression.scores: {len(self.scores)} scores for {len(self.class_names)} classes"
             )
+        if not abs(float(np.sum(self.scores, dtype=np.float64)) - 1.0) <= 1e-3:
+            raise ProtoError(f"expression.scores: probabilities sum to "
+                             f"{float(np.sum(self.scores)):.4f}, not 1")
 
 
 @dataclass(frozen=True, eq=False)

@@ -111,8 +111,17 @@ RULES: dict[str, list[tuple[str, dict[str, Any] | None]]] = {
         ),
     ],
     "expression": [
-        ("label is one of class_names", None),
-        ("scores has one element per class name", None),
+        (
+            "reason is non-empty exactly when label is empty",
+            {
+                "if": {"properties": {"label": {"maxLength": 0}}},
+                "then": {"properties": {"reason": {"minLength": 1}}},
+                "else": {"properties": {"reason": {"maxLength": 0}}},
+            },
+        ),
+        ("a non-empty label is one of class_names", None),
+        ("scores has one element per class name with a label and none without; its "
+         "probabilities sum to 1", None),
     ],
 }
 """Rules that tie fields together, per kind: text, and the JSON Schema of the rule

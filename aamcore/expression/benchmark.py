@@ -211,9 +211,7 @@ def time_process(faces: JaffeFaces, model_path: str | Path, repeats: int = 3
     settings. CPU time, not wall time: the machine may be shared.
     """
     n_appearance = FittingModel.load(model_path).aam.n_appearance
-    fitted, spec, _ = train_deployed(faces, n_appearance)
-    classifier = ExpressionClassifier.from_face_classifier(fitted, spec,
-                                                           model_fingerprint(model_path))
+    classifier = train_deployed(faces, n_appearance).classifier(model_fingerprint(model_path))
     with tempfile.TemporaryDirectory() as tmp:
         classifier = ExpressionClassifier.load(classifier.save(Path(tmp) / "c.npz"))
     times = []

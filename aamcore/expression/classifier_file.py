@@ -3,15 +3,22 @@
 A classifier file is one ``.npz`` archive. Its ``header`` entry holds UTF-8
 JSON bytes::
 
-    {"format": "aamtrack-expression-classifier", "format_version": 2,
+    {"format": "aamtrack-expression-classifier", "format_version": 3,
      "kind": "linear", "class_names": ["NE", ...], "feature_dim": 1972,
-     "aam_fingerprint": "...", "info": {...}, "pipeline": {...}}
+     "aam_fingerprint": "...", "info": {...}, "pipeline": {...},
+     "temperature": 1.7, "absolute_temperature": 2.1, "has_absolute": true}
 
 and every other entry is a plain numeric array of the pure numpy predictor
 (:class:`~aamcore.expression.face_classifier.LinearModel`,
 :class:`~aamcore.expression.lda.MahalanobisModel` or
 :class:`~aamcore.expression.svm.SVMModel`) or the pipeline's shape template
 (``pipeline_template``), so the archive loads with ``allow_pickle=False``.
+A relative pipeline's file also holds a person-independent
+:class:`~aamcore.expression.face_classifier.LinearModel` of the absolute
+vectors (entries ``absolute_*``), which decides until the stream has a
+neutral reference and says which frames are neutral enough to enter it.
+``temperature`` turns each model's scores into probabilities
+(:mod:`~aamcore.expression.calibration`), fitted on held-out posers.
 
 ``pipeline`` is the :class:`~aamcore.expression.spec.PipelineSpec`: which
 features are classified, relative to which reference, behind which quality
@@ -33,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from aamcore.expression.calibration import softmax
 from aamcore.expression.crop import N_LANDMARKS
 from aamcore.expression.face_classifier import FittedFaceClassifier, LinearModel
 from aamcore.expression.lda import FisherMahalanobis, MahalanobisModel
@@ -41,10 +49,11 @@ from aamcore.expression.svm import SVMExpressionClassifier, SVMModel
 from aamcore.io.versioned import checked_header, save_npz
 
 FORMAT_NAME = "aamtrack-expression-classifier"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 KINDS = ("linear", "lda_mahalanobis", "svm_ova", "svm_ovo", "svm_dag")
 _HEADER = "header"
 _TEMPLATE = "pipeline_template"
+_ABSOLUTE = "absolute_"
 
 
 class ClassifierFileError(ValueError):
@@ -76,6 +85,12 @@ class ExpressionClassifier:
         How the vectors classified are computed from a fit and its frame.
     info : dict
         Free JSON-serialisable notes (parameters, features, training set).
+    temperature : float
+        Of the softmax that makes :meth:`probabilities` of the scores.
+    absolute : LinearModel or None
+        The person-independent model of absolute vectors (relative pipelines).
+    absolute_temperature : float
+        Of :meth:`absolute_probabilities`.
     """
 
     kind: str
@@ -84,6 +99,9 @@ class ExpressionClassifier:
     model: Model
     pipeline: PipelineSpec
     info: dict[str, Any] = field(default_factory=dict)
+    temperature: float = 1.0
+    absolute: LinearModel | None = None
+    absolute_temperature: float = 1.0
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -101,6 +119,12 @@ class ExpressionClassifier:
         if self.pipeline.feature_dim != self.feature_dim:
             raise ValueError(f"the pipeline makes vectors of length {self.pipeline.feature_dim}, "
                              f"the model expects {self.feature_dim}")
+        if self.absolute is not None and (self.absolute.feature_dim != self.feature_dim
+                                          or self.absolute.n_classes != len(self.class_names)):
+            raise ValueError("the absolute model does not match the classifier's vectors or "
+                             "classes")
+        if not (self.temperature > 0 and self.absolute_temperature > 0):
+            raise ValueError("temperatures must be > 0")
 
     @property
     def feature_dim(self) -> int:
@@ -114,11 +138,21 @@ class ExpressionClassifier:
         pipeline: PipelineSpec,
         aam_fingerprint: str,
         info: dict[str, Any] | None = None,
+        temperature: float = 1.0,
+        absolute: FittedFaceClassifier | None = None,
+        absolute_temperature: float = 1.0,
     ) -> ExpressionClassifier:
         """Wrap a classifier of :func:`~aamcore.expression.face_classifier.fit_face_classifier`
-        with the pipeline that makes its vectors."""
+        with the pipeline that makes its vectors, and the person-independent linear model of
+        absolute vectors when there is one (with the same classes)."""
         notes = {"classifier_params": fitted.params} | dict(info or {})
-        return cls(fitted.kind, fitted.classes, aam_fingerprint, fitted.model, pipeline, notes)
+        model = None
+        if absolute is not None:
+            if absolute.classes != fitted.classes or not isinstance(absolute.model, LinearModel):
+                raise ValueError("the absolute model must be linear, with the same classes")
+            model = absolute.model
+        return cls(fitted.kind, fitted.classes, aam_fingerprint, fitted.model, pipeline, notes,
+                   temperature, model, absolute_temperature)
 
     @classmethod
     def from_estimator(
@@ -127,6 +161,7 @@ class ExpressionClassifier:
         aam_fingerprint: str,
         pipeline: PipelineSpec,
         info: dict[str, Any] | None = None,
+        temperature: float = 1.0,
     ) -> ExpressionClassifier:
         """Wrap a fitted :class:`FisherMahalanobis` or :class:`SVMExpressionClassifier`
         (the thesis's classifiers) with the pipeline that makes its vectors."""
@@ -139,7 +174,8 @@ class ExpressionClassifier:
         if not hasattr(estimator, "model_"):
             raise ValueError("the estimator is not fitted")
         names = tuple(str(c) for c in estimator.classes_)
-        return cls(kind, names, aam_fingerprint, estimator.model_, pipeline, dict(info or {}))
+        return cls(kind, names, aam_fingerprint, estimator.model_, pipeline, dict(info or {}),
+                   temperature)
 
     def scores(self, X: np.ndarray) -> np.ndarray:
         """Per-class scores of the rows of X (n, k), shape (n, n_classes); higher is likelier."""
@@ -151,6 +187,25 @@ class ExpressionClassifier:
     def predict(self, X: np.ndarray) -> np.ndarray:
         """Class name of each row of X (n, k), shape (n,)."""
         return np.array(self.class_names)[np.argmax(self.scores(X), axis=1)]
+
+    def probabilities(self, X: np.ndarray) -> np.ndarray:
+        """Calibrated class probabilities (n, n_classes) of the rows of X (n, k); rows sum to 1."""
+        return softmax(self.scores(X), self.temperature)
+
+    def absolute_probabilities(self, X: np.ndarray) -> np.ndarray:
+        """The person-independent model's probabilities (n, n_classes) of absolute vectors.
+
+        Raises
+        ------
+        ValueError
+            When the classifier has no absolute model.
+        """
+        if self.absolute is None:
+            raise ValueError("this classifier has no person-independent model")
+        X = np.asarray(X, dtype=np.float64)
+        if X.ndim != 2 or X.shape[1] != self.feature_dim:
+            raise ValueError(f"expected vectors of shape (n, {self.feature_dim}), got {X.shape}")
+        return softmax(self.absolute.scores(X), self.absolute_temperature)
 
     def check_fit(self, scheme: str, n_landmarks: int, appearance_dim: int) -> None:
         """Refuse fits of another landmark scheme than the pipeline's, or of another appearance
@@ -199,6 +254,9 @@ class ExpressionClassifier:
             "aam_fingerprint": self.aam_fingerprint,
             "info": self.info,
             "pipeline": self.pipeline.to_json(),
+            "temperature": self.temperature,
+            "absolute_temperature": self.absolute_temperature,
+            "has_absolute": self.absolute is not None,
         }
 
     def save(self, path: str | Path) -> Path:
@@ -211,6 +269,8 @@ class ExpressionClassifier:
         arrays = {k: np.asarray(v) for k, v in self.model.to_arrays().items()}
         if self.pipeline.template is not None:
             arrays[_TEMPLATE] = np.asarray(self.pipeline.template, np.float64)
+        if self.absolute is not None:
+            arrays |= {_ABSOLUTE + k: np.asarray(v) for k, v in self.absolute.to_arrays().items()}
         save_npz(path, {_HEADER: header, **arrays})
         return path
 
@@ -236,8 +296,12 @@ class ExpressionClassifier:
         kind = header["kind"]
         names = tuple(header["class_names"])
         template = arrays.pop(_TEMPLATE, None)
+        absolute = {k.removeprefix(_ABSOLUTE): arrays.pop(k) for k in list(arrays)
+                    if k.startswith(_ABSOLUTE)}
         try:
             pipeline = PipelineSpec.from_json(header["pipeline"], template)
+            if bool(header["has_absolute"]) != bool(absolute):
+                raise ValueError("the absolute model's arrays do not match the header")
             if kind == "linear":
                 model: Model = LinearModel.from_arrays(arrays)
             elif kind == "lda_mahalanobis":
@@ -245,7 +309,9 @@ class ExpressionClassifier:
             else:
                 model = SVMModel.from_arrays(arrays, kind.removeprefix("svm_"), len(names))
             classifier = cls(kind, names, header["aam_fingerprint"], model, pipeline,
-                             header["info"])
+                             header["info"], float(header["temperature"]),
+                             LinearModel.from_arrays(absolute) if absolute else None,
+                             float(header["absolute_temperature"]))
         except (KeyError, ValueError, TypeError, IndexError) as exc:
             raise ClassifierFileError(f"{path}: inconsistent classifier arrays ({exc})") from exc
         if classifier.feature_dim != header["feature_dim"]:
@@ -260,8 +326,10 @@ def _read_header(path: Path, raw: np.ndarray | None) -> dict[str, Any]:
     """Decode and check the JSON header of a classifier file."""
     header = checked_header(path, raw, FORMAT_NAME, FORMAT_VERSION, "classifier",
                             "retrain it (aamtrack model prepare trains the stack's; format 1 "
-                            "classified raw appearance vectors)", ClassifierFileError)
-    needed = {"kind", "class_names", "feature_dim", "aam_fingerprint", "info", "pipeline"}
+                            "classified raw appearance vectors, format 2 had no probabilities)",
+                            ClassifierFileError)
+    needed = {"kind", "class_names", "feature_dim", "aam_fingerprint", "info", "pipeline",
+              "temperature", "absolute_temperature", "has_absolute"}
     missing = needed - set(header)
     if missing:
         raise ClassifierFileError(f"{path}: header lacks {', '.join(sorted(missing))}")

@@ -26,6 +26,9 @@ from aamcore.expression.crop import FaceFeatureError, FaceObservation
 from aamcore.expression.quality import LEARNING
 from aamcore.expression.reference import NeutralReference
 
+NEUTRAL = "NE"
+"""The neutral class: the reference is made of the frames the person-independent model
+gives it."""
 LOST_FRAMES_RESET = 60
 """Frames in a row without a classifiable face after which the reference is forgotten (the
 next face may be another person's): two seconds at 30 fps."""
@@ -40,17 +43,22 @@ class ExpressionEstimate:
     label : str or None
         The class of highest score; ``None`` when the face was not classified.
     scores : (n_classes,) float64 array or None
-        Per-class scores in the classifier's ``class_names`` order.
+        Per-class probabilities (summing to 1) in the classifier's ``class_names`` order.
     reason : str
         Why there is no label (empty when there is one), ``"<key>: <details>"``.
     reference_count : int
         Vectors in the stream's reference.
+    basis : str
+        What decided: ``"relative"`` (the features against the stream's neutral
+        reference), ``"absolute"`` (the person-independent model, while there is no
+        reference) or empty without a label.
     """
 
     label: str | None
     scores: np.ndarray | None
     reason: str = ""
     reference_count: int = 0
+    basis: str = ""
 
     @property
     def ok(self) -> bool:
@@ -78,6 +86,8 @@ class ExpressionPipeline:
         self.reference: NeutralReference = self.spec.new_reference()
         self.lost_frames_reset = lost_frames_reset
         self._lost = 0
+        names = classifier.class_names
+        self._neutral = names.index(NEUTRAL) if NEUTRAL in names else -1
 
     def reset(self) -> None:
         """Forget the stream's reference (a new stream or another person)."""
@@ -94,9 +104,12 @@ class ExpressionPipeline:
         """The expression of the next frame of the stream.
 
         A face the quality gate refuses gets no label, with the reason.
-        Otherwise its feature vector updates the reference (when the pipeline
-        is relative) and, once the reference is ready, ``vector - reference``
-        is classified; before that the reason is :data:`~aamcore.expression.quality.LEARNING`.
+        Otherwise, in a relative pipeline, its feature vector enters the
+        stream's reference when the person-independent model calls it neutral
+        with at least the spec's ``neutral_gate``; once the reference is ready
+        ``vector - reference`` is classified, before that the absolute vector by
+        the person-independent model (without one, the reason is
+        :data:`~aamcore.expression.quality.LEARNING`).
         """
         spec = self.spec
         try:
@@ -113,13 +126,22 @@ class ExpressionPipeline:
                 f"{spec.feature_dim} (appearance vector of {observation.appearance.size})"
             )
         self._lost = 0
-        if spec.relative:
+        classifier = self.classifier
+        if not spec.relative:
+            return self._estimate(classifier.probabilities(vector[None, :])[0], "absolute")
+        absolute = None
+        if classifier.absolute is not None:
+            absolute = classifier.absolute_probabilities(vector[None, :])[0]
+        if absolute is None or self._neutral < 0 or absolute[self._neutral] >= spec.neutral_gate:
             self.reference.update(vector)
-            if not self.reference.ready:
-                return ExpressionEstimate(
-                    None, None, f"{LEARNING}: {self.reference.count} of "
-                    f"{self.reference.min_count} samples", self.reference.count)
-            vector = vector - self.reference.reference()
-        scores = self.classifier.scores(vector[None, :])[0]
-        label = self.classifier.class_names[int(np.argmax(scores))]
-        return ExpressionEstimate(label, scores, "", self.reference.count)
+        if self.reference.ready:
+            relative = vector - self.reference.reference()
+            return self._estimate(classifier.probabilities(relative[None, :])[0], "relative")
+        if absolute is not None:
+            return self._estimate(absolute, "absolute")
+        return ExpressionEstimate(None, None, f"{LEARNING}: {self.reference.count} of "
+                                  f"{self.reference.min_count} samples", self.reference.count)
+
+    def _estimate(self, probabilities: np.ndarray, basis: str) -> ExpressionEstimate:
+        label = self.classifier.class_names[int(np.argmax(probabilities))]
+        return ExpressionEstimate(label, probabilities, "", self.reference.count, basis)

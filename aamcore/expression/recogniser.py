@@ -3,8 +3,9 @@
 :class:`ExpressionRecogniser` runs one stream's
 :class:`~aamcore.expression.pipeline.ExpressionPipeline` on each fit and its
 frame (quality gate, face features, the stream's reference, classifier) and,
-when asked, averages the scores over the last few consecutive classified
-frames (a frame without expression starts the average again).
+when asked, averages the probabilities over the last few consecutive
+classified frames (a frame without expression starts the average again) and
+holds the label until another has led for a few frames (:class:`LabelHold`).
 :class:`aamcore.tracker.FaceTracker` calls it with the frame it tracks, the
 expression service with the frame its fit names, so the two give the same
 expressions.
@@ -32,11 +33,15 @@ class Recognition:
         The class of highest (smoothed) score; ``None``: no expression.
     class_names : tuple of str
     scores : (C,) float64 array or None
-        Per-class scores in ``class_names`` order; ``None`` without a label.
+        Per-class probabilities (summing to 1) in ``class_names`` order; ``None``
+        without a label.
     smoothed : bool
-        Whether more than one frame went into the scores.
+        Whether more than one frame went into the scores, or the label was held.
     reason : str
         Why there is no expression, ``"<key>: <details>"``; empty with a label.
+    basis : str
+        ``"relative"`` or ``"absolute"``: what decided
+        (:class:`~aamcore.expression.pipeline.ExpressionEstimate`).
     """
 
     label: str | None
@@ -44,6 +49,7 @@ class Recognition:
     scores: np.ndarray | None
     smoothed: bool = False
     reason: str = ""
+    basis: str = ""
 
     @property
     def ok(self) -> bool:
@@ -71,6 +77,39 @@ class Smoother:
         return np.mean(self._scores, axis=0), len(self._scores) > 1
 
 
+STACK_HOLD = 3
+"""Classified frames a new label leads before the stack shows it (100 ms at 30 fps): a
+label that flickers for a frame or two is not shown; the library holds none by default."""
+
+
+class LabelHold:
+    """Hysteresis on the label: a new label replaces the one shown only once it has led the
+    (smoothed) probabilities for ``frames`` classified frames in a row; 0 holds nothing."""
+
+    def __init__(self, frames: int) -> None:
+        if frames < 0:
+            raise ValueError(f"holding a label for {frames} frames: it must be at least 0")
+        self.frames = frames
+        self.reset()
+
+    def reset(self) -> None:
+        self.shown: int | None = None
+        self._leader: int | None = None
+        self._led = 0
+
+    def add(self, scores: np.ndarray) -> int:
+        """The column of the label shown after these scores (C,)."""
+        best = int(np.argmax(scores))
+        if self.frames == 0 or self.shown is None or best == self.shown:
+            self.shown, self._leader, self._led = best, None, 0
+            return best
+        self._led = self._led + 1 if best == self._leader else 1
+        self._leader = best
+        if self._led >= self.frames:
+            self.shown, self._leader, self._led = best, None, 0
+        return self.shown
+
+
 class ExpressionRecogniser:
     """Classify the faces of a stream, frame by frame, in frame order.
 
@@ -82,19 +121,24 @@ class ExpressionRecogniser:
     lost_frames_reset : int
         Frames without a classifiable face after which the stream's reference
         is forgotten.
+    hold : int
+        Classified frames a new label must lead before it is shown (0: none; a
+        frame without expression forgets the label shown).
     """
 
     def __init__(self, classifier: ExpressionClassifier, smooth: int = 1,
-                 lost_frames_reset: int = LOST_FRAMES_RESET) -> None:
+                 lost_frames_reset: int = LOST_FRAMES_RESET, hold: int = 0) -> None:
         self.classifier = classifier
         self.pipeline = ExpressionPipeline(classifier, lost_frames_reset)
         self.smoother = Smoother(smooth)
+        self.hold = LabelHold(hold)
         self._last_index = -1
 
     def reset(self) -> None:
-        """Forget the stream: its reference and the frames averaged."""
+        """Forget the stream: its reference, the frames averaged and the label held."""
         self.pipeline.reset()
         self.smoother.reset()
+        self.hold.reset()
         self._last_index = -1
 
     def recognise(
@@ -142,6 +186,9 @@ class ExpressionRecogniser:
         estimate = self.pipeline.process(observation)
         names = self.classifier.class_names
         if estimate.scores is None:
+            self.hold.reset()
             return Recognition(None, names, None, False, estimate.reason)
         scores, smoothed = self.smoother.add(frame_index, estimate.scores)
-        return Recognition(names[int(np.argmax(scores))], names, scores, smoothed)
+        shown = self.hold.add(scores)
+        held = shown != int(np.argmax(scores))
+        return Recognition(names[shown], names, scores, smoothed or held, "", estimate.basis)

@@ -35,6 +35,7 @@ from aamcore import defaults
 from aamcore.config import cache_dir
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.expression.analysis import observe
+from aamcore.expression.calibration import fit_temperature, held_out_scores
 from aamcore.expression.classifier_file import AAMMismatchError, ExpressionClassifier
 from aamcore.expression.crop import FaceObservation, canonical_shape
 from aamcore.expression.face_classifier import FittedFaceClassifier, fit_face_classifier
@@ -52,10 +53,11 @@ from aamcore.io.jaffe import load_jaffe
 from aamcore.io.sample import DatasetError
 from aamcore.progress import note, progress
 
-TRAINING_VERSION = 6
+TRAINING_VERSION = 7
 """Bump when the training below changes, so that cached classifiers are retrained (3: the
 RBF SVM of raw ``c``; 4 was the research branch's; 5: the face-feature pipeline; 6: keyed
-by algorithm and feature set, the thesis's LDA + Mahalanobis on ``c``)."""
+by algorithm and feature set, the thesis's LDA + Mahalanobis on ``c``; 7: the
+person-independent model beside the relative one, temperatures fitted on held-out posers)."""
 FEATURE_SETS: dict[str, str] = {
     "deployed": DEPLOYED.name,
     "thesis": "c, absolute, LDA+Mahalanobis (thesis)",
@@ -154,6 +156,55 @@ def shape_template(observations: Sequence[FaceObservation], usable: np.ndarray) 
     return np.mean(shapes, axis=0)
 
 
+@dataclass
+class DeployedModels:
+    """What :func:`train_deployed` learns.
+
+    Attributes
+    ----------
+    fitted : FittedFaceClassifier
+        The variant's classifier (of relative vectors when the variant is relative).
+    absolute : FittedFaceClassifier or None
+        The person-independent linear model of absolute vectors (relative variants).
+    temperature, absolute_temperature : float
+        Their softmax temperatures, fitted on held-out posers.
+    spec : PipelineSpec
+    n_samples : int
+        Faces trained on.
+    """
+
+    fitted: FittedFaceClassifier
+    absolute: FittedFaceClassifier | None
+    temperature: float
+    absolute_temperature: float
+    spec: PipelineSpec
+    n_samples: int
+
+    def classifier(self, fingerprint: str, info: Mapping[str, Any] | None = None
+                   ) -> ExpressionClassifier:
+        """The classifier file's contents for the fits of model ``fingerprint``."""
+        notes = dict(info or {}) | {"samples": self.n_samples}
+        return ExpressionClassifier.from_face_classifier(
+            self.fitted, self.spec, fingerprint, notes, self.temperature, self.absolute,
+            self.absolute_temperature)
+
+
+def calibrated(X: np.ndarray, y: np.ndarray, groups: np.ndarray, dims: Mapping[str, int],
+               variant: Variant) -> tuple[FittedFaceClassifier, float]:
+    """``variant``'s classifier of X (n, d) and the temperature of its scores, fitted on
+    each poser's faces scored by a classifier trained without that poser."""
+
+    def fit(Xt: np.ndarray, yt: np.ndarray, gt: np.ndarray) -> Any:
+        return fit_face_classifier(Xt, yt, gt, dims, variant.weights, variant.classifier).scores
+
+    fitted = fit_face_classifier(X, y, groups, dims, variant.weights, variant.classifier)
+    if len(np.unique(groups)) < 2:
+        return fitted, 1.0
+    scores = held_out_scores(fit, X, y, groups)
+    truth = np.searchsorted(np.array(fitted.classes), y)
+    return fitted, fit_temperature(scores, truth)
+
+
 def train_deployed(
     faces: JaffeFaces,
     appearance_dim: int,
@@ -161,39 +212,36 @@ def train_deployed(
     limits: QualityLimits = QualityLimits(),
     reference: Mapping[str, Any] = STREAM_REFERENCE,
     class_names: Sequence[str] = SEVEN_CLASSES,
-) -> tuple[FittedFaceClassifier, PipelineSpec, int]:
-    """Train ``variant`` on every classifiable face of ``faces``.
+    train: np.ndarray | None = None,
+) -> DeployedModels:
+    """Train ``variant`` on every classifiable face of ``faces`` (of ``train`` (n,) when given).
 
     The gate's shape template is the mean canonical shape of the faces the
     gate accepts; each face is taken relative to the median of its poser's
     classifiable faces (as in the benchmark); ``reference`` holds the stream
-    settings the spec carries to the library and the service.
-
-    Returns
-    -------
-    fitted : FittedFaceClassifier
-    spec : PipelineSpec
-    n_samples : int
-        Faces trained on.
+    settings the spec carries to the library and the service. A relative
+    variant also gets the person-independent model of the absolute vectors.
+    Both are calibrated leave-one-poser-out.
     """
     config = variant.config()
     observed = observe(faces.observations, config, limits)
-    ok = observed.ok
+    ok = observed.ok & (True if train is None else np.asarray(train, bool))
     template = shape_template(faces.observations, ok)
     for i in np.flatnonzero(ok):
         ok[i] = not landmark_problem(faces.observations[i], limits, template)
     X = observed.vectors(variant.blocks)
+    dims = observed.dims(variant.blocks)
     labels, posers = faces.labels.astype(str), faces.posers.astype(str)
-    if variant.relative:
-        X = X - poser_references(X, posers, ok)
-    train = ok & np.isin(labels, list(class_names))
+    used = ok & np.isin(labels, list(class_names))
+    absolute, absolute_t = None, 1.0
     with threadpool_limits(limits=1):
-        fitted = fit_face_classifier(X[train], labels[train], posers[train],
-                                     observed.dims(variant.blocks), variant.weights,
-                                     variant.classifier)
+        if variant.relative:
+            absolute, absolute_t = calibrated(X[used], labels[used], posers[used], dims, variant)
+            X = X - poser_references(X, posers, ok)
+        fitted, temperature = calibrated(X[used], labels[used], posers[used], dims, variant)
     spec = PipelineSpec(config, appearance_dim, variant.relative, dict(reference), limits,
                         template)
-    return fitted, spec, int(train.sum())
+    return DeployedModels(fitted, absolute, temperature, absolute_t, spec, int(used.sum()))
 
 
 def train_thesis(
@@ -202,7 +250,7 @@ def train_thesis(
     limits: QualityLimits = QualityLimits(),
     reference: Mapping[str, Any] = STREAM_REFERENCE,
     class_names: Sequence[str] = SEVEN_CLASSES,
-) -> tuple[Any, PipelineSpec, int]:
+) -> tuple[Any, PipelineSpec, int, float]:
     """The thesis's classifier (LDA + Mahalanobis, its Fisher directions chosen by eq. 9.8)
     of the absolute appearance ``c`` of every classifiable face of ``faces`` with one.
 
@@ -211,6 +259,8 @@ def train_thesis(
     estimator : FisherMahalanobis
     spec : PipelineSpec
     n_samples : int
+    temperature : float
+        Of its scores' softmax, fitted on held-out posers.
     """
     from aamcore.expression.evaluation import lda_mahalanobis_spec
 
@@ -228,10 +278,16 @@ def train_thesis(
     train = ok & np.isin(labels, list(class_names))
     if not train.any():
         raise ValueError("no JAFFE face with an appearance passes the quality gate")
+    def fit(Xt: np.ndarray, yt: np.ndarray, gt: np.ndarray) -> Any:
+        return lda_mahalanobis_spec().fit(Xt, yt, gt).model_.scores
+
     with threadpool_limits(limits=1):
         estimator = lda_mahalanobis_spec().fit(X[train], labels[train], posers[train])
+        scores = held_out_scores(fit, X[train], labels[train], posers[train])
+    truth = np.searchsorted(np.array([str(c) for c in estimator.classes_]), labels[train])
+    temperature = fit_temperature(scores, truth)
     spec = PipelineSpec(config, appearance_dim, False, dict(reference), limits, template)
-    return estimator, spec, int(train.sum())
+    return estimator, spec, int(train.sum()), temperature
 
 
 def train_classifier(model_path: str | Path, folder: str | Path | None = None,
@@ -253,12 +309,10 @@ def train_classifier(model_path: str | Path, folder: str | Path | None = None,
             "fit_failed": int(faces.fit_failed.sum()), "no_face": int(faces.no_face.sum())}
     fingerprint = model_fingerprint(model_path)
     if features == "thesis":
-        estimator, spec, n = train_thesis(faces, n_appearance)
+        estimator, spec, n, temperature = train_thesis(faces, n_appearance)
         return ExpressionClassifier.from_estimator(estimator, fingerprint, spec,
-                                                   info | {"samples": n})
-    fitted, spec, n = train_deployed(faces, n_appearance)
-    return ExpressionClassifier.from_face_classifier(fitted, spec, fingerprint,
-                                                     info | {"samples": n})
+                                                   info | {"samples": n}, temperature)
+    return train_deployed(faces, n_appearance).classifier(fingerprint, info)
 
 
 def check_made_for(classifier: ExpressionClassifier, fingerprint: str, algorithm: str) -> None:

@@ -6,11 +6,13 @@ run cut short keeps every row before the cut)::
     frame, timestamp, success, confidence,
     pose_Tx, pose_Ty, pose_Tz, pose_roll, pose_pitch, pose_yaw, pose_reliable,
     x_0 ... x_{N-1}, y_0 ... y_{N-1}, occluded_0 ... occluded_{N-1},
-    expression, score_<class> ..., reason
+    expression, score_<class> ..., expression_reason, reason
 
 ``occluded_i`` is 1 where landmark ``i``'s part of the face is covered (from the
 AAM's texture residual), 0 where it is not, empty where it was not judged;
-``reason`` says why a frame has no face, a failed fit or an unreliable pose.
+``score_<class>`` are probabilities summing to 1; ``expression_reason`` says why a
+frame has no expression label, ``reason`` why it has no face, a failed fit or an
+unreliable pose.
 
 Translations are millimetres in camera coordinates, angles degrees; a value
 that does not exist for a frame (no face, no pose) is left empty. JSON Lines
@@ -38,7 +40,8 @@ def columns(n_points: int, class_names: Sequence[str]) -> list[str]:
              "pose_roll", "pose_pitch", "pose_yaw", "pose_reliable"]
             + [f"x_{i}" for i in range(n_points)] + [f"y_{i}" for i in range(n_points)]
             + [f"occluded_{i}" for i in range(n_points)]
-            + ["expression"] + [f"score_{name}" for name in class_names] + ["reason"])
+            + ["expression"] + [f"score_{name}" for name in class_names]
+            + ["expression_reason", "reason"])
 
 
 def _cell(value: float) -> str:
@@ -64,7 +67,7 @@ def row(result: FaceResult, n_points: int, class_names: Sequence[str]) -> list[s
              f"{result.confidence:.4f}", *pose, _cell(result.roll_deg),
              _cell(result.pitch_deg), _cell(result.yaw_deg),
              str(int(result.pose_reliable)) if t is not None else "", *xs, *ys, *occluded,
-             result.expression or "", *scores, result.reason])
+             result.expression or "", *scores, result.expression_reason, result.reason])
 
 
 class ResultWriter:

@@ -133,7 +133,8 @@ def describe(msg: Message) -> str:
                 + ("" if msg.reliable else ", unreliable"))
     elif kind == "expression":
         best = float(max(msg.scores)) if len(msg.scores) else math.nan
-        body = f"{msg.label} ({best:.2f})" + (", smoothed" if msg.smoothed else "")
+        body = (f"{msg.label} ({best:.2f})" + (", smoothed" if msg.smoothed else "")
+                if msg.label else f"no label: {msg.reason}")
     elif kind == "status":
         body = (f"{msg.service} {msg.state} in {msg.frames_in} out {msg.frames_out} "
                 f"dropped {msg.dropped} rejected {msg.rejected} lost {msg.lost} ignored "

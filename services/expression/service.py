@@ -9,15 +9,18 @@ and hands both to the stream's
 :class:`aamcore.tracker.FaceTracker` does with the frames it tracks: quality
 gate, face features (HOG patches at the landmarks, canonical shape), the
 stream's reference learned without labels, the classifier, and with
-``--smooth N`` the scores averaged over the last N classified frames. A frame
+``--smooth N`` the probabilities averaged over the last N classified frames,
+with ``--hold N`` a new label published once it has led for N frames. A frame
 without expression (no face, a face the gate refuses, the reference still
-being learned) publishes nothing; the status line counts each reason. A new
-run, or a frame index that goes back, starts the stream afresh.
+being learned) gets an expression with an empty label and the reason; the
+status line counts each reason. A new run, or a frame index that goes back,
+starts the stream afresh.
 
 Without a usable classifier (none given, unreadable, of another format or
 feature version, made for another fitting model) the service still runs: it
-takes fits, publishes no expression and says why in its status (state
-``degraded``); so it does when fits of another landmark scheme or AAM arrive.
+takes fits, answers each with no label and the reason, and says why in its
+status (state ``degraded``); so it does when fits of another landmark scheme
+or AAM arrive.
 """
 
 from __future__ import annotations
@@ -50,6 +53,8 @@ MAX_FRAMES_KEPT = 256
 of 1280 x 720. A fast-paced run keeps 1,024 fits while busy; before this bound it kept a
 frame for each, raw and decoded (1.4 MB each): 1.6 GB. A fit whose frame was pushed out is
 counted as dropped (``no frame``)."""
+MAX_REASON = 512
+"""Characters of a reason kept in the message (the contract allows 1024 bytes)."""
 FRAME_WAIT_S = 0.5
 """How long a fit waits for its frame: the source's frame and the fitter's fit travel apart."""
 
@@ -97,10 +102,18 @@ class Unclassified:
 
 
 def expression_message(svc: Service, fit: Fit, found: Recognition) -> Expression:
-    """The message of a classified fit (``found.ok``)."""
-    assert found.label is not None and found.scores is not None
+    """The message of a fit: its label and probabilities, or no label and the reason."""
+    if found.label is None or found.scores is None:
+        return unlabelled(svc, fit, found.reason or "not classified", found.class_names)
     return Expression(svc.header_for(fit), found.label, found.class_names,
-                      found.scores.astype(np.float32), found.smoothed)
+                      found.scores.astype(np.float32), found.smoothed, "")
+
+
+def unlabelled(svc: Service, fit: Fit, reason: str, class_names: tuple[str, ...] = ()
+               ) -> Expression:
+    """The answer to a fit without expression: no label, the reason."""
+    return Expression(svc.header_for(fit), "", class_names, np.zeros(0, np.float32), False,
+                      reason[:MAX_REASON])
 
 
 def recognise(recogniser: ExpressionRecogniser, fit: Fit, image: np.ndarray) -> Recognition:
@@ -137,8 +150,9 @@ class ExpressionStream:
         self.unclassified = Unclassified()
         self._run: str | None = None
 
-    def handle(self, fit: Fit) -> Expression | None:
-        """The expression of a fit, or None (counted, or rejected when the fit is unusable)."""
+    def handle(self, fit: Fit) -> Expression:
+        """The expression of a fit: a label, or none and why (counted; rejected when the fit
+        is unusable)."""
         h = fit.header
         if h.run_id != self._run:
             self._run = h.run_id
@@ -147,21 +161,21 @@ class ExpressionStream:
         frame = self.frames.take(h.run_id, h.frame_index, timeout=wait)
         if frame is None and len(fit.landmarks):
             self.svc.stats.dropped += 1  # its frame is gone: never received or pushed out
-            self.unclassified.add(h.frame_index, "no frame: it was not received in time")
-            return None
+            reason = "no frame: it was not received in time"
+            self.unclassified.add(h.frame_index, reason)
+            return unlabelled(self.svc, fit, reason, self.recogniser.classifier.class_names)
         try:
             image = image_of(frame.message) if frame is not None else np.zeros((1, 1), np.uint8)
             found = recognise(self.recogniser, fit, image)
         except AAMMismatchError as exc:
             self.svc.reject("fit", f"not classified: {exc}")
             self.svc.set_state("degraded", str(exc))
-            return None
+            return unlabelled(self.svc, fit, f"not classified: {exc}")
         except (ProtoError, ValueError) as exc:
             self.svc.reject("fit", f"not classified: {exc}")
-            return None
+            return unlabelled(self.svc, fit, f"not classified: {exc}")
         if not found.ok:
             self.unclassified.add(h.frame_index, found.reason)
-            return None
         return expression_message(self.svc, fit, found)
 
 
@@ -172,7 +186,8 @@ def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
     if classifier is not None:
         frames = svc.recent("frame", min(max(FRAMES_KEPT, opts.capacity + 16), MAX_FRAMES_KEPT),
                             grey_frame)
-        stream = ExpressionStream(svc, ExpressionRecogniser(classifier, opts.smooth), frames)
+        stream = ExpressionStream(svc, ExpressionRecogniser(classifier, opts.smooth,
+                                                                hold=opts.hold), frames)
     fits = svc.messages("fit", capacity=opts.capacity)
     if classifier is None:
         svc.log.error("%s; running without expressions", why)
@@ -184,10 +199,9 @@ def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
         fit = got.message
         assert isinstance(fit, Fit)
         if stream is None:
+            svc.publish(unlabelled(svc, fit, f"no classifier: {why}"))
             continue
-        message = stream.handle(fit)
-        if message is not None:
-            svc.publish(message)
+        svc.publish(stream.handle(fit))
         if svc.state != "degraded":
             svc.set_state("running", stream.unclassified.line())
 

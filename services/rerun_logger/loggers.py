@@ -256,15 +256,14 @@ class ExpressionLogger:
         self._label: str | None = None
 
     def log(self, msg: Expression) -> None:
-        """Log the scores of ``msg`` on ``series/expression/<class>``."""
+        """Log the probabilities of ``msg`` on ``series/expression/<class>``; a frame without a
+        label logs no series point (its reason ends the label shown)."""
         for name, score in zip(msg.class_names, msg.scores, strict=True):
             self._series.scalar(ent.child(ent.EXPRESSION_SERIES, name), float(score), name)
         if msg.label != self._label:
             self._label = msg.label
-            self._rec.log(
-                ent.EVENTS,
-                rr.TextLog(f"frame {msg.header.frame_index}: expression {msg.label}"),
-            )
+            text = f"expression {msg.label}" if msg.label else f"no expression: {msg.reason}"
+            self._rec.log(ent.EVENTS, rr.TextLog(f"frame {msg.header.frame_index}: {text}"))
 
 
 class LatencyLogger:

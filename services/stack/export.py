@@ -32,18 +32,20 @@ def face_result(fit: Fit, pose: HeadPose | None, expression: Expression | None) 
     h = fit.header
     t = h.media_time_ns / 1e9
     points = np.asarray(fit.landmarks, np.float64)
+    labelled = expression is not None and bool(expression.label)
+    why = "" if expression is None or labelled else expression.reason
     if len(points) == 0:
         return FaceResult(h.frame_index, t, False, 0.0, np.zeros((0, 2)),
-                          reason=fit.failure_reason or NO_FACE)
+                          reason=fit.failure_reason or NO_FACE, expression_reason=why)
     a, b, tx, ty = (float(v) for v in fit.similarity)
-    scores = ({} if expression is None
+    scores = ({} if expression is None or not labelled
               else dict(zip(expression.class_names, map(float, expression.scores), strict=True)))
     found = fit.appearance
     occluded = (np.asarray(found.occluded, bool) if found is not None
                 and len(found.occluded) == len(points) else None)
     common = dict(similarity=Similarity(a, b, tx, ty), reason=fit.failure_reason,
-                  expression=expression.label if expression else None, expression_scores=scores,
-                  occluded=occluded)
+                  expression=expression.label if labelled else None, expression_scores=scores,
+                  expression_reason=why, occluded=occluded)
     confidence = float(fit.confidence)
     if pose is None:
         return FaceResult(h.frame_index, t, not fit.failed, confidence, points, **common)
@@ -69,8 +71,6 @@ def results_of(messages: list[Message]) -> Exported:
         key = (fit.header.run_id, fit.header.frame_index)
         results.append(face_result(fit, poses.get(key), expressions.get(key)))
     n_points = max((len(f.landmarks) for f in fits), default=0)
-    names: tuple[str, ...] = ()
-    for m in expressions.values():
-        names = tuple(m.class_names)
-        break
+    names = next((tuple(m.class_names) for m in expressions.values()
+                  if isinstance(m, Expression) and m.class_names), ())
     return Exported(results, n_points, names)

@@ -82,7 +82,8 @@ class StackMonitor:
     def _count(self, msg: Message) -> None:
         self.counts[msg.KIND] += 1
         self.end.saw(msg)
-        if msg.KIND in self.indices:
+        # A frame "with" an expression has a label; every fit gets an expression message.
+        if msg.KIND in self.indices and (msg.KIND != "expression" or msg.label):
             self.indices[msg.KIND].add(msg.header.frame_index)
         if msg.KIND == "fit":
             if len(msg.landmarks):

@@ -86,21 +86,27 @@ def expression_observation(kind: str, person: float, landmarks: np.ndarray | Non
     return FaceObservation.from_arrays(face_image(points), points, np.zeros(3))
 
 
-def stream_classifier(min_count: int = 3) -> ExpressionClassifier:
+def stream_classifier(min_count: int = 3, absolute: bool = False) -> ExpressionClassifier:
     """An LDA of relative shape features of three synthetic people (classes NE, HA, SU);
-    its stream reference is ready after ``min_count`` faces."""
+    its stream reference is ready after ``min_count`` faces. With ``absolute``, also the
+    person-independent LDA of the absolute features (the deployed pipeline's pair)."""
     config = FeatureConfig(blocks=("shape",))
     rng = np.random.default_rng(0)
     kinds, people = ["NE", "HA", "SU"] * 4, [-0.1, 0.0, 0.1]
-    X, y, g = [], [], []
+    X, A, y, g = [], [], [], []
     for person in people:
         faces = [expression_observation(k, person) for k in kinds]
         vectors = observe(faces, config).vectors(config.blocks)
         vectors += rng.normal(0.0, 0.01, vectors.shape)
+        A.append(vectors)
         X.append(vectors - np.median(vectors, axis=0))
         y += kinds
         g += [str(person)] * len(kinds)
-    fitted = fit_face_classifier(np.vstack(X), np.array(y), np.array(g), {"shape": 136})
+    labels, groups = np.array(y), np.array(g)
+    fitted = fit_face_classifier(np.vstack(X), labels, groups, {"shape": 136})
     spec = PipelineSpec(config, appearance_dim=3, template=unit_face(),
                         reference={"window": 10, "stride": 1, "min_count": min_count})
-    return ExpressionClassifier.from_face_classifier(fitted, spec, "model")
+    person_independent = (fit_face_classifier(np.vstack(A), labels, groups, {"shape": 136})
+                          if absolute else None)
+    return ExpressionClassifier.from_face_classifier(fitted, spec, "model",
+                                                     absolute=person_independent)

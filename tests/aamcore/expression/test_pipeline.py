@@ -70,3 +70,34 @@ def test_an_appearance_vector_of_another_length_gives_no_expression() -> None:
     assert pipeline.process(obs).label == "NE"  # absolute: no reference to learn
     longer = FaceObservation.from_arrays(obs.image, obs.landmarks, np.zeros(5))
     assert pipeline.process(longer).reason.startswith("wrong feature length: 141")
+
+
+def test_a_stream_that_opens_on_an_expression_is_read_from_its_first_frame() -> None:
+    """The person-independent model labels frames until a reference exists; frames it does
+    not call neutral never enter the reference."""
+    classifier = stream_classifier(min_count=3, absolute=True)
+    pipeline = ExpressionPipeline(classifier)
+    person = 0.05
+    opening = [pipeline.process(expression_observation("HA", person)) for _ in range(6)]
+    assert all(e.ok and e.basis == "absolute" and e.label == "HA" for e in opening)
+    assert pipeline.reference.count == 0  # a laugh is not the face's reference
+    for e in opening:
+        assert e.scores is not None and np.isclose(e.scores.sum(), 1.0)
+    neutral = [pipeline.process(expression_observation("NE", person)) for _ in range(3)]
+    assert pipeline.reference.count == 3 and neutral[-1].basis == "relative"
+    assert pipeline.process(expression_observation("SU", person)).label == "SU"
+
+
+def test_a_gate_of_zero_lets_every_frame_into_the_reference() -> None:
+    classifier = stream_classifier(min_count=3, absolute=True)
+    spec = classifier.pipeline
+    open_gate = PipelineSpec(spec.features, spec.appearance_dim, spec.relative,
+                             spec.reference, spec.quality, spec.template, neutral_gate=0.0)
+    pipeline = ExpressionPipeline(ExpressionClassifier(
+        classifier.kind, classifier.class_names, "model", classifier.model, open_gate,
+        absolute=classifier.absolute))
+    for _ in range(3):
+        pipeline.process(expression_observation("HA", 0.05))
+    assert pipeline.reference.count == 3
+    with pytest.raises(ValueError, match="neutral_gate"):
+        PipelineSpec(spec.features, 3, neutral_gate=1.0)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from aamcore.expression import AAMMismatchError, ExpressionClassifier
-from aamcore.expression.recogniser import ExpressionRecogniser, Smoother
+from aamcore.expression.recogniser import ExpressionRecogniser, LabelHold, Smoother
 from aamcore.expression.training import JaffeFaces
 from tests.aamcore.expression.synthetic_faces import expression_observation, stream_classifier
 
@@ -69,19 +69,42 @@ def test_no_face_and_fits_of_another_model() -> None:
 def test_a_stream_of_one_jaffe_posers_faces_is_recognised(
     classifier_path: Path, jaffe: JaffeFaces
 ) -> None:
+    """Every frame is labelled from the first (the person-independent model decides until the
+    stream's reference is made of frames it calls neutral), with probabilities."""
     classifier = ExpressionClassifier.load(classifier_path)
+    assert classifier.absolute is not None and classifier.temperature > 0
     recogniser = ExpressionRecogniser(classifier)
-    reference = classifier.pipeline.reference
-    warm_up = (reference["min_count"] - 1) * reference["stride"] + 1  # frames until classified
     faces = np.tile(np.flatnonzero(jaffe.posers == "KA"), 4)
-    right = total = 0
+    right, bases = 0, []
     for k, i in enumerate(faces):
         obs = jaffe.observations[i]
         found = recogniser.recognise(k, obs.image, obs.landmarks, obs.appearance, obs.fit_failed)
-        if k < warm_up - 1:
-            assert not found.ok and found.reason.startswith("learning the face's reference")
-            continue
         assert found.ok, found.reason
+        assert found.scores is not None and np.isclose(found.scores.sum(), 1.0)
         right += found.label == jaffe.labels[i]
-        total += 1
-    assert total == len(faces) - warm_up + 1 and right / total > 0.8  # training faces
+        bases.append(found.basis)
+    assert bases[0] == "absolute" and set(bases) <= {"absolute", "relative"}
+    assert right / len(faces) > 0.8  # training faces
+
+
+def test_a_held_label_changes_only_after_the_new_one_leads_for_a_few_frames() -> None:
+    hold = LabelHold(2)
+    ha, su = np.array([0.1, 0.8, 0.1]), np.array([0.1, 0.2, 0.7])
+    assert hold.add(ha) == 1
+    assert hold.add(su) == 1  # one frame of SU: HA still shown
+    assert hold.add(ha) == 1
+    assert hold.add(su) == 1 and hold.add(su) == 2  # two in a row: SU
+    assert LabelHold(0).add(su) == 2
+    with pytest.raises(ValueError):
+        LabelHold(-1)
+
+
+def test_the_recogniser_holds_labels_and_a_frame_without_one_forgets_the_label() -> None:
+    recogniser = ExpressionRecogniser(stream_classifier(min_count=1, absolute=True), hold=2)
+    first = _recognise(recogniser, 0, "HA")
+    assert first.label == "HA" and first.basis == "absolute"
+    flicker = _recognise(recogniser, 1, "SU")
+    assert flicker.label == "HA" and flicker.smoothed  # held
+    image = np.zeros((240, 320), np.uint8)
+    assert not recogniser.recognise(2, image, None, None, True, "no face").ok
+    assert _recognise(recogniser, 3, "SU").label == "SU"  # nothing held after the gap

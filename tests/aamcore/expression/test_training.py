@@ -50,13 +50,22 @@ def test_the_cached_classifier_is_the_deployed_pipeline_of_the_model(
 
 
 def test_train_deployed_learns_the_training_faces(jaffe: JaffeFaces, model_path: Path) -> None:
-    fitted, spec, n = models.train_deployed(jaffe, FittingModel.load(model_path).aam.n_appearance)
+    trained = models.train_deployed(jaffe, FittingModel.load(model_path).aam.n_appearance)
+    fitted, spec, n = trained.fitted, trained.spec, trained.n_samples
     assert n == 213 and spec.feature_dim == 1972
     np.testing.assert_allclose(spec.template, shape_template(jaffe.observations,
                                                              np.ones(213, bool)))
     with pytest.raises(ValueError, match="no usable face"):
         shape_template(jaffe.observations, np.zeros(213, bool))
     assert set(fitted.classes) == set(SEVEN_CLASSES)
+    # The person-independent model and both temperatures, fitted on held-out posers: the
+    # scores' softmax is neither a hard vote nor uniform.
+    assert trained.absolute is not None and trained.absolute.classes == fitted.classes
+    for t in (trained.temperature, trained.absolute_temperature):
+        assert 0.01 < t < 100.0
+    held_out = models.train_deployed(jaffe, FittingModel.load(model_path).aam.n_appearance,
+                                     train=jaffe.posers != "KA")
+    assert held_out.n_samples < n
 
 
 def test_a_cached_classifier_is_reused(model_path: Path, classifier_path: Path) -> None:
