@@ -42,8 +42,8 @@ import time
 from collections import Counter
 from pathlib import Path
 
+from aamcore.evaluation.expression_report import format_benchmark
 from aamcore.expression.quality import reason_key
-from aamcore.expression.report import format_benchmark
 from services.cli.expression_cmd import add_benchmark_options, benchmark
 
 

@@ -31,8 +31,8 @@ import numpy as np  # noqa: E402
 from threadpoolctl import threadpool_limits  # noqa: E402
 
 from aamcore.config import data_root  # noqa: E402
+from aamcore.evaluation.expression_report import format_benchmark  # noqa: E402
 from aamcore.expression.benchmark import run_expression_benchmark, thesis_specs  # noqa: E402
-from aamcore.expression.report import format_benchmark  # noqa: E402
 from aamcore.expression.svm import SVM_GRIDS  # noqa: E402
 from aamcore.expression.training import jaffe_faces  # noqa: E402
 from aamcore.expression.variants import DEPLOYED, THESIS_CLASSIFIERS, variant_named  # noqa: E402

@@ -46,7 +46,7 @@ def _outputs(p: argparse.ArgumentParser) -> None:
 
 
 def _writers(args: argparse.Namespace, n_points: int, class_names: tuple[str, ...]) -> list:
-    from aamcore.io.results import ResultWriter
+    from aamcore.results import ResultWriter
 
     return [ResultWriter(path, kind, n_points, class_names)
             for kind, path in (("csv", args.csv), ("jsonl", args.jsonl)) if path is not None]

@@ -76,7 +76,7 @@ def benchmark(args: argparse.Namespace):  # -> ExpressionBenchmark (imported lat
         progress=lambda line: print(line, file=sys.stderr, flush=True),
     )
     if args.out:
-        from aamcore.expression.report import write_outputs
+        from aamcore.evaluation.expression_report import write_outputs
 
         write_outputs(bench, args.out)
     return bench
@@ -84,7 +84,7 @@ def benchmark(args: argparse.Namespace):  # -> ExpressionBenchmark (imported lat
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark; return 0 when the deployed pipeline meets its targets, else 1."""
-    from aamcore.expression.report import format_benchmark
+    from aamcore.evaluation.expression_report import format_benchmark
 
     bench = benchmark(args)
     print(json.dumps(bench.to_dict(), indent=1) if args.json else format_benchmark(bench))

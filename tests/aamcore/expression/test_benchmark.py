@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from aamcore.evaluation.expression_report import format_benchmark, write_outputs
 from aamcore.expression.analysis import observe
 from aamcore.expression.benchmark import (
     ALL_BLOCKS,
@@ -21,7 +22,6 @@ from aamcore.expression.benchmark import (
 from aamcore.expression.crop import FaceObservation
 from aamcore.expression.evaluation import NOT_CLASSIFIED, ClassifierSpec
 from aamcore.expression.lda import FisherMahalanobis
-from aamcore.expression.report import format_benchmark, write_outputs
 from aamcore.expression.training import JaffeFaces
 from aamcore.expression.variants import DEPLOYED, Variant
 

@@ -1,4 +1,4 @@
-"""aamcore.expression.report: confusion matrices (thesis layout, PNG) and the benchmark table."""
+"""aamcore.evaluation.expression_report: confusion matrices (thesis layout) and the table."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
+from aamcore.evaluation.expression_report import format_confusion, save_confusion_png
 from aamcore.expression.evaluation import NOT_CLASSIFIED, EvaluationResult
 from aamcore.expression.labels import FIVE_CLASSES
-from aamcore.expression.report import format_confusion, save_confusion_png
 
 
 def _result() -> EvaluationResult:

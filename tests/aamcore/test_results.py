@@ -1,4 +1,4 @@
-"""aamcore.io.results: per-frame CSV and JSON Lines read back with the standard library."""
+"""aamcore.results: per-frame CSV and JSON Lines read back with the standard library."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from aamcore.io.results import ResultWriter, columns
+from aamcore.results import ResultWriter, columns
 from aamcore.tracker import FaceResult
 
 
