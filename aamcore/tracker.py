@@ -277,8 +277,9 @@ class FaceTracker:
             return None
         if fit is None:
             return self.expression.recognise(index, frame, None, None, True, NO_FACE)
+        occluded = fit.occluded if isinstance(fit, AAMFit) else None
         return self.expression.recognise(index, frame, points, appearance_of(fit), fit.failed,
-                                         fit.reason, self.model.aam.scheme.name)
+                                         fit.reason, self.model.aam.scheme.name, occluded)
 
     def process_video(self, path: str | Path) -> Iterator[FaceResult]:
         """The result of every frame of a video file, timestamps from its frame rate.

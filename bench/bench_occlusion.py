@@ -22,6 +22,12 @@ it, and of the landmarks flagged on ``videos/single_face.mp4`` (a talking
 face, nothing covering it).
 
 Targets: >= 90 % of the covered landmarks flagged, <= 5 % of the visible ones.
+
+Also the expression gate's "face covered" rule per frame
+(:attr:`aamcore.expression.spec.QualityLimits.max_covered`: the share of the inner
+landmarks flagged): of the frames where the hand covers at least
+:data:`FACE_COVERED` of the inner landmarks, and of those without the hand (and of
+``single_face.mp4``), the share the rule refuses, for the deployed limit and others.
 """
 
 from __future__ import annotations
@@ -49,6 +55,10 @@ from tracking_clips import generated_clips  # noqa: E402
 TARGET_COVERED, TARGET_VISIBLE = 0.90, 0.05
 COVERED, VISIBLE = 0.5, 0.0
 """A landmark is covered at or above this share of its part of the face, visible at none."""
+INNER = slice(17, 68)
+FACE_COVERED = 0.2
+"""A frame's face is covered when the hand covers at least this share of its inner landmarks."""
+LIMITS = (0.1, 0.15, 0.2, 0.3)
 GROUPS = {"jaw": range(0, 17), "brows": range(17, 27), "nose": range(27, 36),
           "eyes": range(36, 48), "mouth": range(48, 68)}
 
@@ -67,8 +77,11 @@ class Tally:
     occluded_frames: int = 0
     occluded_without_fit: int = 0
     groups: dict[str, list[int]] = field(default_factory=lambda: {g: [0, 0] for g in GROUPS})
+    frames: list[tuple[float, bool]] = field(default_factory=list)
+    """(share of the inner landmarks flagged, face covered) of the frames judged."""
 
     def add(self, other: Tally) -> None:
+        self.frames += other.frames
         for name in ("covered", "covered_flagged", "visible", "visible_flagged", "clean",
                      "clean_flagged", "partly", "occluded_frames", "occluded_without_fit"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
@@ -97,6 +110,9 @@ def score(tracker: FaceTracker, frames: list[np.ndarray], covered: np.ndarray,
             continue
         flags = result.occluded
         cov, vis = shares >= COVERED, shares <= VISIBLE
+        inner_covered = float(np.mean(cov[INNER]))
+        if not hand or inner_covered >= FACE_COVERED:
+            t.frames.append((float(np.mean(flags[INNER])), hand))
         t.partly += int((~cov & ~vis).sum())
         if not with_hand:
             t.clean += len(flags)
@@ -169,6 +185,16 @@ def main(argv: list[str] | None = None) -> int:
           "without the hand)")
     print(f"occluded frames without a good fit (no flags): {total.occluded_without_fit} of "
           f"{total.occluded_frames}")
+    print(f"\nexpression gate 'face covered' (share of inner landmarks flagged > limit), frames "
+          f"refused: | limit | covered faces (hand over >= {FACE_COVERED:.0%} of the inner "
+          "landmarks) | faces without the hand | single_face.mp4 |")
+    shares = np.array([f for f, _ in total.frames])
+    covered_face = np.array([c for _, c in total.frames], bool)
+    clean_video = np.array([f for f, _ in real.frames])
+    for limit in LIMITS:
+        cells = [f"{share(int((v > limit).sum()), len(v)).strip()} of {len(v)}"
+                 for v in (shares[covered_face], shares[~covered_face], clean_video)]
+        print(f"| {limit:g} | " + " | ".join(cells) + " |")
     return 0 if covered >= TARGET_COVERED and visible <= TARGET_VISIBLE else 1
 
 

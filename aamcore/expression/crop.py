@@ -57,6 +57,8 @@ class FaceObservation:
         Whether the fitter's own failure test rejected the fit.
     fit_reason : str
         The fitter's reason (``"no face"`` when the detector found none).
+    occluded : (N,) bool array or None
+        The fit's per-landmark occlusion flags; None where they were not judged.
     """
 
     image: np.ndarray
@@ -64,6 +66,7 @@ class FaceObservation:
     appearance: np.ndarray
     fit_failed: bool = False
     fit_reason: str = ""
+    occluded: np.ndarray | None = None
 
     @classmethod
     def from_arrays(
@@ -73,6 +76,7 @@ class FaceObservation:
         appearance: np.ndarray | None,
         fit_failed: bool = False,
         fit_reason: str = "",
+        occluded: np.ndarray | None = None,
     ) -> FaceObservation:
         """Build from arrays of any float type; ``None`` for a frame without a face.
 
@@ -83,8 +87,11 @@ class FaceObservation:
         """
         points = np.zeros((0, 2)) if landmarks is None else _as_published(landmarks)
         c = np.zeros(0) if appearance is None else _as_published(appearance).ravel()
+        flags = None
+        if occluded is not None and len(occluded) == len(points.reshape(-1, 2)):
+            flags = np.asarray(occluded, bool)
         return cls(np.asarray(image), points.reshape(-1, 2), c, bool(fit_failed),
-                   str(fit_reason))
+                   str(fit_reason), flags)
 
 
 def _as_published(values: np.ndarray) -> np.ndarray:

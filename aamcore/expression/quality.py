@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from aamcore.expression.crop import (
+    INNER_POINTS,
     FaceFeatureError,
     FaceObservation,
     approximate_yaw_deg,
@@ -74,7 +75,8 @@ def landmark_problem(
     The checks, in order: found; 68 finite landmarks; eyes at least
     ``limits.min_eye_distance`` px apart; at most ``limits.max_outside`` of
     the landmarks outside the frame; eye line within ``limits.max_roll_deg``;
-    head turned at most ``limits.max_yaw_deg``; and, when ``template`` is
+    at most ``limits.max_covered`` of the inner landmarks flagged occluded (when
+    the fit has flags); head turned at most ``limits.max_yaw_deg``; and, when ``template`` is
     given, a canonical shape within ``limits.max_shape_deviation`` eye
     distances RMS of it.
 
@@ -102,6 +104,12 @@ def landmark_problem(
     placed = _placement_problem(points, observation.image.shape, limits)
     if placed:
         return placed
+    flags = observation.occluded
+    if flags is not None:
+        covered = float(np.mean(flags[list(INNER_POINTS)]))
+        if covered > limits.max_covered:
+            return (f"face covered: {100 * covered:.0f} % of the inner landmarks occluded "
+                    f"(at most {100 * limits.max_covered:g} %)")
     yaw = approximate_yaw_deg(points)
     if abs(yaw) > limits.max_yaw_deg:
         return f"face in profile: turned about {yaw:.0f} degrees (at most {limits.max_yaw_deg:g})"

@@ -150,6 +150,7 @@ class ExpressionRecogniser:
         fit_failed: bool = False,
         fit_reason: str = "",
         scheme: str = SCHEME,
+        occluded: np.ndarray | None = None,
     ) -> Recognition:
         """The expression of frame ``frame_index``.
 
@@ -168,6 +169,8 @@ class ExpressionRecogniser:
             The fitter's verdict (``"no face"`` when nothing was found).
         scheme : str
             The fit's landmark scheme.
+        occluded : (N,) bool array, optional
+            The fit's occlusion flags: a face covered beyond the gate's limit gets no label.
 
         Raises
         ------
@@ -182,7 +185,7 @@ class ExpressionRecogniser:
             n_appearance = 0 if appearance is None else int(np.size(appearance))
             self.classifier.check_fit(scheme, len(landmarks), n_appearance)
         observation = FaceObservation.from_arrays(image, landmarks, appearance, fit_failed,
-                                                  fit_reason)
+                                                  fit_reason, occluded)
         estimate = self.pipeline.process(observation)
         names = self.classifier.class_names
         if estimate.scores is None:

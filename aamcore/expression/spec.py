@@ -137,6 +137,10 @@ class QualityLimits:
     max_shape_deviation : float
         Largest RMS distance of the canonical shape from the classifier's
         template shape, in eye distances (checked only when there is a template).
+    max_covered : float
+        Largest share of the inner landmarks (brows, eyes, nose, mouth) the fit
+        flags occluded (the AAM's texture residual, e.g. a hand over the mouth):
+        a covered face's features are the cover's (checked only with flags).
     """
 
     min_eye_distance: float = 16.0
@@ -145,6 +149,7 @@ class QualityLimits:
     max_yaw_deg: float = 35.0
     min_symmetry: float = 0.72
     max_shape_deviation: float = 0.5
+    max_covered: float = 0.2
 
 
 @dataclass(frozen=True, eq=False)

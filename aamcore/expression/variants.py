@@ -88,8 +88,13 @@ class Variant:
 
 DEPLOYED = Variant("hog+shape (1:1), relative, LDA (deployed)", ("hog", "shape"))
 """The variant the library's and the stack's classifier is trained with."""
+PERSON_INDEPENDENT = Variant("hog+shape (1:1), absolute, LDA (person-independent)",
+                             ("hog", "shape"), "none")
+"""The deployed classifier's person-independent model: it decides until the stream has a
+neutral reference, and says which frames are neutral."""
 VARIANTS: tuple[Variant, ...] = (
     DEPLOYED,
+    PERSON_INDEPENDENT,
     Variant("hog, relative, LDA", ("hog",)),
     Variant("hog, absolute, LDA", ("hog",), "none"),
     Variant("shape, relative, LDA", ("shape",)),

@@ -125,8 +125,9 @@ def recognise(recogniser: ExpressionRecogniser, fit: Fit, image: np.ndarray) -> 
         For a fit of another landmark scheme or appearance length than the classifier's.
     """
     landmarks = fit.landmarks if len(fit.landmarks) else None
+    occluded = None if fit.appearance is None else np.asarray(fit.appearance.occluded)
     return recogniser.recognise(fit.header.frame_index, image, landmarks, fit.c, fit.failed,
-                                fit.failure_reason, fit.scheme)
+                                fit.failure_reason, fit.scheme, occluded)
 
 
 def grey_frame(got: Received) -> Received:

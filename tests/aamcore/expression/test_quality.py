@@ -74,3 +74,23 @@ def test_reasons_name_the_fitters_verdict_and_the_symmetry() -> None:
     why = symmetry_problem(0.5)
     assert reason_key(why) == "face in profile or badly fitted" and "0.50" in why
     assert reason_key("no face") == "no face"
+
+
+def test_a_face_covered_beyond_the_limit_is_refused_with_its_share() -> None:
+    good = observation()
+    flags = np.zeros(68, bool)
+    flags[48:68] = True  # the mouth under a hand: 20 of the 51 inner landmarks
+    covered = FaceObservation.from_arrays(good.image, good.landmarks, good.appearance,
+                                          occluded=flags)
+    assert landmark_problem(covered) == ("face covered: 39 % of the inner landmarks occluded "
+                                         "(at most 20 %)")
+    assert landmark_problem(covered, QualityLimits(max_covered=0.5)) == ""
+    flags[:] = False
+    flags[0:17] = True  # the jaw only: the expression's landmarks are visible
+    jaw = FaceObservation.from_arrays(good.image, good.landmarks, good.appearance,
+                                      occluded=flags)
+    assert landmark_problem(jaw) == ""
+    # Flags of another length are not the fit's: ignored.
+    odd = FaceObservation.from_arrays(good.image, good.landmarks, good.appearance,
+                                      occluded=np.ones(5, bool))
+    assert odd.occluded is None and landmark_problem(odd) == ""
