@@ -47,10 +47,14 @@ class StreamRow:
     name : str
     make : callable
         ``make(models) -> (classifier, hold)``.
+    neutral_reference : bool
+        The models' relative classifier trained against each poser's neutral faces
+        (:func:`~aamcore.expression.training.train_deployed`).
     """
 
     name: str
     make: Callable[[DeployedModels], tuple[ExpressionClassifier, int]]
+    neutral_reference: bool = False
 
 
 def _deployed(gate: float | None = None, hold: int = 0) -> Callable[[DeployedModels], tuple[
@@ -92,6 +96,10 @@ def stream_rows(stack_hold: int) -> list[StreamRow]:
         StreamRow("person-independent only (no reference)", _absolute),
         StreamRow("deployed, neutral gate 0.3", _deployed(0.3)),
         StreamRow("deployed, neutral gate 0.7", _deployed(0.7)),
+        StreamRow("deployed, relative trained on neutral references", _deployed(),
+                  neutral_reference=True),
+        StreamRow("deployed, relative trained on neutral references + label hold "
+                  f"{stack_hold}", _deployed(hold=stack_hold), neutral_reference=True),
     ]
 
 
@@ -167,8 +175,10 @@ def run_streams(faces: JaffeFaces, appearance_dim: int, rows: Sequence[StreamRow
     posers = faces.posers.astype(str)
     labels = faces.labels.astype(str)
     for poser in np.unique(posers):
-        models = train_deployed(faces, appearance_dim, train=posers != poser)
-        made = [(row, *row.make(models)) for row in rows]
+        models = {kind: train_deployed(faces, appearance_dim, train=posers != poser,
+                                       neutral_reference=kind)
+                  for kind in sorted({row.neutral_reference for row in rows})}
+        made = [(row, *row.make(models[row.neutral_reference])) for row in rows]
         for opening in openings:
             frames = stream_order(faces, poser, opening)
             rng = np.random.default_rng(seed)

@@ -40,6 +40,7 @@ from aamcore.expression.classifier_file import AAMMismatchError, ExpressionClass
 from aamcore.expression.crop import FaceObservation, canonical_shape
 from aamcore.expression.face_classifier import FittedFaceClassifier, fit_face_classifier
 from aamcore.expression.labels import SEVEN_CLASSES
+from aamcore.expression.pipeline import NEUTRAL
 from aamcore.expression.quality import landmark_problem
 from aamcore.expression.reference import poser_references
 from aamcore.expression.spec import STREAM_REFERENCE, PipelineSpec, QualityLimits
@@ -213,6 +214,7 @@ def train_deployed(
     reference: Mapping[str, Any] = STREAM_REFERENCE,
     class_names: Sequence[str] = SEVEN_CLASSES,
     train: np.ndarray | None = None,
+    neutral_reference: bool = False,
 ) -> DeployedModels:
     """Train ``variant`` on every classifiable face of ``faces`` (of ``train`` (n,) when given).
 
@@ -221,7 +223,9 @@ def train_deployed(
     classifiable faces (as in the benchmark); ``reference`` holds the stream
     settings the spec carries to the library and the service. A relative
     variant also gets the person-independent model of the absolute vectors.
-    Both are calibrated leave-one-poser-out.
+    Both are calibrated leave-one-poser-out. With ``neutral_reference`` each
+    face's reference is the median of its poser's neutral faces instead, as a
+    stream's is made of the frames called neutral.
     """
     config = variant.config()
     observed = observe(faces.observations, config, limits)
@@ -237,7 +241,8 @@ def train_deployed(
     with threadpool_limits(limits=1):
         if variant.relative:
             absolute, absolute_t = calibrated(X[used], labels[used], posers[used], dims, variant)
-            X = X - poser_references(X, posers, ok)
+            usable = ok & (labels == NEUTRAL) if neutral_reference else ok
+            X = X - poser_references(X, posers, usable)
         fitted, temperature = calibrated(X[used], labels[used], posers[used], dims, variant)
     spec = PipelineSpec(config, appearance_dim, variant.relative, dict(reference), limits,
                         template)

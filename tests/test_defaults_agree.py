@@ -1,0 +1,48 @@
+"""The library and each service start from equal configurations: every default is defined
+once (in aamcore) and the services' options wrap it. Where the stack deliberately differs
+(smoothing, the expression label hold), the difference is the one documented."""
+
+from __future__ import annotations
+
+import inspect
+
+from aamcore import defaults
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.expression.recogniser import STACK_HOLD, ExpressionRecogniser
+from aamcore.fitting.config import FITTER
+from aamcore.tracker import FaceTracker
+from services.detector.options import DetectorOptions
+from services.expression.options import ExpressionOptions
+from services.fitter.options import FitterOptions
+from services.pose.options import PoseOptions
+
+
+def _default(function: object, name: str) -> object:
+    return inspect.signature(function).parameters[name].default  # type: ignore[arg-type]
+
+
+def test_the_fitter_service_and_the_library_fit_alike() -> None:
+    assert FitterOptions().config() == FITTER
+    assert _default(FaceTracker, "fitter") is None  # None: FITTER, the same object
+
+
+def test_the_detector_service_and_the_library_search_alike() -> None:
+    opts, haar = DetectorOptions(), HaarFaceDetector()
+    assert (opts.scale_factor, opts.min_neighbors) == (haar.scale_factor, haar.min_neighbors)
+    assert (opts.min_size, opts.min_size) == tuple(haar.min_size)
+    assert opts.max_side == (haar.max_side or 0)
+    assert defaults.DETECTOR["scale_factor"] == haar.scale_factor
+
+
+def test_the_pose_service_and_the_library_estimate_alike() -> None:
+    opts = PoseOptions()
+    assert opts.estimator == defaults.POSE_ESTIMATOR and opts.fov == defaults.FOV_DEG
+    assert _default(FaceTracker, "pose_estimator") is None  # None: defaults.POSE_ESTIMATOR
+
+
+def test_the_expression_service_and_the_library_classify_alike_but_for_the_hold() -> None:
+    opts = ExpressionOptions()
+    assert opts.smooth == _default(FaceTracker, "expression_smooth") == _default(
+        ExpressionRecogniser, "smooth")
+    assert _default(FaceTracker, "expression_hold") == _default(ExpressionRecogniser, "hold") == 0
+    assert opts.hold == STACK_HOLD > 0  # on in the stack, off in the library, as smoothing
