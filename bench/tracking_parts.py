@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -18,6 +18,8 @@ from aamcore.fitting.tracker import Refit, Tracker, fit_upright
 from aamcore.io.landmarks import LandmarkScheme
 from aamcore.synth.motion_files import GroundTruth
 
+RIGHT = 0.08
+"""A good fit with an NME under this is on the face (the re-acquisition criterion)."""
 PARTS = ("all", "jaw", "brows", "nose", "eyes", "mouth")
 """The columns: every point, then the scheme's groups of these names."""
 
@@ -154,7 +156,11 @@ class Pool:
 
     errors: dict[str, list[np.ndarray]]
     seconds: list[np.ndarray]
+    common: list[np.ndarray] = field(default_factory=list)
+    """NME (all points) of the frames where every scheme compared has a good fit."""
     good: int = 0
+    right: int = 0
+    """Good fits with an NME under :data:`RIGHT`."""
     outside: int = 0
     refits: int = 0
     kept: int = 0
@@ -165,8 +171,10 @@ class Pool:
         return cls({part: [] for part in PARTS}, [])
 
     def add(self, run: Run, truth: GroundTruth, scheme: LandmarkScheme) -> None:
-        for part, e in part_errors(run, truth, scheme).items():
+        errors = part_errors(run, truth, scheme)
+        for part, e in errors.items():
             self.errors[part].append(e)
+        self.right += int(np.sum(errors["all"] < RIGHT))
         self.seconds.append(run.seconds)
         self.good += int(np.sum(run.ok & ~truth.occluded))
         self.outside += int(np.sum(~truth.occluded))
@@ -174,17 +182,26 @@ class Pool:
         self.kept += run.kept
         self.frames += len(run.ok)
 
+    def add_common(self, run: Run, truth: GroundTruth, scheme: LandmarkScheme,
+                   common: np.ndarray) -> None:
+        """The NME of the frames ``common`` (F,) marks, where every scheme has a good fit."""
+        self.common.append(part_errors(Run(common, run.landmarks, run.seconds), truth,
+                                       scheme)["all"])
+
     def mean(self, part: str) -> float:
         e = np.concatenate(self.errors[part]) if self.errors[part] else np.zeros(0)
         return float(e.mean()) if len(e) else math.nan
 
 
-HEADER = (f"{'scheme':<40}{'good out':>9}" + "".join(f"{p + ' mean/p95':>17}" for p in PARTS)
-          + f"{'ms mean':>8}{'ms med':>7}{'refits':>7}{'kept':>6}")
+HEADER = (f"{'scheme':<40}{'good out':>9}{'<0.08':>7}"
+          + "".join(f"{p + ' mean/p95':>17}" for p in PARTS)
+          + f"{'common':>8}{'ms mean':>8}{'ms med':>7}{'refits':>7}{'kept':>6}")
 
 
 def pool_row(name: str, pool: Pool) -> str:
-    """One table line: good fits outside the occluder, NME mean/p95 per part, time, refits."""
+    """One table line: good fits outside the occluder (all, and those with an NME under
+    :data:`RIGHT`), NME mean/p95 per part, the mean NME of the frames every scheme fits well,
+    time, refits."""
     def cell(part: str) -> str:
         e = np.concatenate(pool.errors[part]) if pool.errors[part] else np.zeros(0)
         if not len(e):
@@ -193,7 +210,10 @@ def pool_row(name: str, pool: Pool) -> str:
 
     ms = 1000 * np.concatenate(pool.seconds) if pool.seconds else np.zeros(0)
     good = f"{pool.good / pool.outside:.1%}" if pool.outside else "-"
+    right = f"{pool.right / pool.outside:.1%}" if pool.outside else "-"
     refit = f"{pool.refits / pool.frames:.0%}" if pool.frames else "-"
     kept = f"{pool.kept / pool.refits:.0%}" if pool.refits else "-"
-    return (f"{name[:39]:<40}{good:>9}" + "".join(cell(p) for p in PARTS)
+    common = np.concatenate(pool.common) if pool.common else np.zeros(0)
+    shared = f"{common.mean():>8.4f}" if len(common) else f"{'-':>8}"
+    return (f"{name[:39]:<40}{good:>9}{right:>7}" + "".join(cell(p) for p in PARTS) + shared
             + f"{ms.mean():>8.2f}{np.median(ms):>7.2f}{refit:>7}{kept:>6}")
