@@ -2,12 +2,12 @@
 
 Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_tracking.py [--algorithm NAME]
 [--model FILE] [--per-set 4] [--frames 150] [--nonrigid 2] [--schemes A B ...] [--parts-only]
-[--via-stack [N]] [--regenerate]``
+[--no-refit] [--via-stack [N]] [--regenerate]``
 
 The tracker runs through the library as the stack runs it
 (:class:`aamcore.tracker.FaceTracker`: Haar detection, the fitter of
-``--algorithm``, re-detection on the same frame when a fit fails; no
-smoothing), on one core, frame by frame, on:
+``--algorithm``, its refits from the mean face (``--no-refit``: none), re-detection on
+the same frame when a fit fails; no smoothing), on one core, frame by frame, on:
 
 1. ``videos/single_face.mp4`` (a person talking to a webcam; no ground truth:
    good fits, failed fits, frames without a face, re-detections, time);
@@ -79,6 +79,7 @@ from aamcore.config import REPO_ROOT, cache_dir, data_root, resolve_dataset  # n
 from aamcore.fitting.algorithm import ALGORITHMS  # noqa: E402
 from aamcore.fitting.fitter import Fitter  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
+from aamcore.fitting.tracker import NEVER  # noqa: E402
 from aamcore.io import load_annotated_folder  # noqa: E402
 from aamcore.io.landmarks import LandmarkScheme  # noqa: E402
 from aamcore.io.splits import set_name_of, split  # noqa: E402
@@ -240,6 +241,9 @@ def parse_args() -> argparse.Namespace:
                         help="non-rigid sequences per set (default 2)")
     parser.add_argument("--schemes", nargs="+", default=list(SCHEMES), metavar="SCHEME",
                         help=f"schemes compared per part (default {' '.join(SCHEMES)})")
+    parser.add_argument("--no-refit", action="store_true",
+                        help="the library's tracker without refits from the mean face "
+                             "(Refit NEVER)")
     parser.add_argument("--parts-only", action="store_true",
                         help="only the per-part comparison of the schemes")
     return parser.parse_args()
@@ -338,7 +342,8 @@ def main() -> int:
         scheme = model.aam.scheme
         if scheme.n_points != 68:
             raise SystemExit(f"{model_path}: {scheme.name} points; the sequences have iBUG-68")
-        tracker = FaceTracker(model, algorithm=args.algorithm)
+        tracker = FaceTracker(model, algorithm=args.algorithm,
+                              refit=NEVER if args.no_refit else None)
         print(f"{tracker.tracker.fitter.name} ({args.algorithm}), model {model_path.name} "
               f"({model.aam.summary.get('source', '?')}); OMP_NUM_THREADS="
               f"{os.environ.get('OMP_NUM_THREADS')}, one OpenCV thread")

@@ -11,7 +11,7 @@ import pytest
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
-from aamcore.fitting.tracker import NEVER, Refit, Tracker
+from aamcore.fitting.tracker import DEFAULT_REFIT, NEVER, Refit, Tracker
 from aamcore.fitting.upright import rotated_view
 from aamcore.io import load_annotated_folder
 from aamcore.io.splits import split
@@ -199,8 +199,9 @@ def test_refits_from_the_mean_face_keep_no_more_error_than_tracking(
     model_path: Path, changing_face: Sequence,
 ) -> None:
     fitter = Fitter(FittingModel.load(model_path))
-    plain = Tracker(fitter)
-    assert plain.refit == NEVER and NEVER.never
+    assert Tracker(fitter).refit == DEFAULT_REFIT and not DEFAULT_REFIT.never
+    plain = Tracker(fitter, refit=NEVER)
+    assert NEVER.never
     tracked, tracked_good = mean_error(plain, changing_face)
     assert plain.refits == 0
     hybrid = Tracker(fitter, refit=Refit(every=4, failed=True))
