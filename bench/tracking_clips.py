@@ -26,6 +26,8 @@ SEEDS = {"lfpw": 100, "helen": 200, "afw": 300}
 """First motion seed of each set's sequences."""
 NONRIGID_SEED = 1000
 """Added to a set's seed for its non-rigid sequences."""
+NONRIGID = " non-rigid"
+"""Ends the set name of a set's non-rigid sequences."""
 NONRIGID_OTHERS = 2
 """Other held-out faces whose aligned shapes a non-rigid sequence's face blends toward."""
 OCCLUDER = (0.4, 0.6)
@@ -39,7 +41,8 @@ class Clip:
     Attributes
     ----------
     set_name : str
-        ``lfpw``, ``helen``, ``afw``, or ``video`` for the real video.
+        ``lfpw``, ``helen``, ``afw`` (with :data:`NONRIGID` after it for the non-rigid
+        sequences), or ``video`` for the real video.
     name : str
     video : Path
     truth : GroundTruth or None
@@ -160,5 +163,5 @@ def nonrigid_clips(model: FittingModel, per_set: int, frames: int,
                 truth = read_ground_truth(folder)
             label = (f"{set_name} {Path(sample.image_path).stem} nonrigid"
                      f"{' +occl' if spec.occluder else ''}")
-            clips.append(Clip(set_name, label, video_path(folder), truth))
+            clips.append(Clip(set_name + NONRIGID, label, video_path(folder), truth))
     return clips
