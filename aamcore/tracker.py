@@ -33,7 +33,7 @@ from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
 from aamcore.fitting.result import AAMFit, LandmarkFit, appearance_of
 from aamcore.fitting.search import SearchSchedule
-from aamcore.fitting.tracker import Tracker
+from aamcore.fitting.tracker import Refit, Tracker
 from aamcore.io.video import FALLBACK_FPS, frame_rate
 from aamcore.model.similarity import Similarity
 from aamcore.pose import IntrinsicsError, PoseError
@@ -206,6 +206,10 @@ class FaceTracker:
     search : SearchSchedule, optional
         Which frames without a face are searched (the stack's default; for offline
         work where time is no object, :meth:`SearchSchedule.every_frame`).
+    refit : Refit, optional
+        When a tracked frame is also fitted afresh from the mean face placed on its
+        landmarks (:data:`aamcore.fitting.tracker.DEFAULT_REFIT`, the stack's; ``NEVER``:
+        tracking only).
     """
 
     def __init__(self, model: str | Path | FittingModel | None = None,
@@ -215,7 +219,7 @@ class FaceTracker:
                  smoothing: bool = False, pose_estimator: str | None = None,
                  expression_smooth: int = 1, expression_hold: int = 0,
                  fitter: FitterConfig | None = None,
-                 search: SearchSchedule | None = None) -> None:
+                 search: SearchSchedule | None = None, refit: Refit | None = None) -> None:
         chosen = profile_named(profile) if profile else None
         config = fitter or (chosen.fitter if chosen else FITTER)
         given = {"algorithm": algorithm, "failure_test": failure_test}
@@ -230,7 +234,7 @@ class FaceTracker:
         self.expression = _recogniser(classifier or None, self.model, path,  # type: ignore
                                       config.algorithm, expression_smooth, expression_hold)
         self.tracker = Tracker(Fitter.from_config(self.model, config), HaarFaceDetector(),
-                               search)
+                               search, refit)
         calibration = camera if isinstance(camera, str | Path) else None
         fov = float(camera) if isinstance(camera, int | float) else defaults.FOV_DEG
         cameras = Cameras(fov, str(calibration) if calibration else None)

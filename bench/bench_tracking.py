@@ -1,12 +1,13 @@
 """Tracking bench: the stack's tracker on a real video and on generated videos with exact landmarks.
 
 Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_tracking.py [--algorithm NAME]
-[--model FILE] [--per-set 4] [--frames 150] [--via-stack [N]] [--regenerate]``
+[--model FILE] [--per-set 4] [--frames 150] [--nonrigid 2] [--schemes A B ...] [--parts-only]
+[--no-refit] [--via-stack [N]] [--regenerate]``
 
 The tracker runs through the library as the stack runs it
 (:class:`aamcore.tracker.FaceTracker`: Haar detection, the fitter of
-``--algorithm``, re-detection on the same frame when a fit fails; no
-smoothing), on one core, frame by frame, on:
+``--algorithm``, its refits from the mean face (``--no-refit``: none), re-detection on
+the same frame when a fit fails; no smoothing), on one core, frame by frame, on:
 
 1. ``videos/single_face.mp4`` (a person talking to a webcam; no ground truth:
    good fits, failed fits, frames without a face, re-detections, time);
@@ -30,9 +31,26 @@ without it already has a good fit with NME < 0.08); time per frame, median and
 p95. A summary row per set and overall pools the frames (re-acquisition: the
 worst sequence).
 
-Targets (overall): >= 98 % of the frames outside the occluder with a good fit;
+Targets (overall, the rigid sequences): >= 98 % of the frames outside the occluder with a good fit;
 mean NME <= 0.035 on them; re-acquisition within 5 frames on every sequence
 with an occluder.
+
+3. non-rigid sequences (``--nonrigid N`` per set, default 2): held-out photos whose face
+   also changes shape, warped piecewise-affinely (:mod:`aamcore.synth.deform`) to an
+   expression that changes over time (the mouth opening with the jaw and closing, a
+   smile, the brows raised, blinks) blended toward the aligned shapes of two other
+   held-out photos of the set, under smaller rigid motion (rotation to +-15 deg, scale
+   0.85-1.2), with the same lighting, blur and occluder (every second sequence); the
+   truth is the warped landmarks. Written and read back as the rigid ones are.
+
+The schemes of ``--schemes`` are then compared per facial part (all, jaw, brows, nose,
+eyes, mouth: NME mean/p95 of the good fits outside the occluder) on the rigid and the
+non-rigid sequences, each frame timed through the :class:`~aamcore.fitting.tracker.Tracker`
+(or the fitter) alone: ``track`` (the default tracker), ``refit:...`` (the tracker with
+refits from the mean face, :class:`~aamcore.fitting.tracker.Refit`), and the floors
+``truth`` (every frame fitted from the mean face placed on that frame's true landmarks),
+``previous`` (placed on the previous frame's fit), either ``+track`` (one tracking step
+after). ``--parts-only`` skips the library table.
 
 ``--via-stack N`` also runs ``aamtrack run --video FILE --record FILE --pace
 fast --no-ar --no-smooth`` with the same model and algorithm on the first N
@@ -59,7 +77,9 @@ from threadpoolctl import threadpool_limits  # noqa: E402
 from aamcore import defaults  # noqa: E402
 from aamcore.config import REPO_ROOT, cache_dir, data_root, resolve_dataset  # noqa: E402
 from aamcore.fitting.algorithm import ALGORITHMS  # noqa: E402
+from aamcore.fitting.fitter import Fitter  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
+from aamcore.fitting.tracker import NEVER  # noqa: E402
 from aamcore.io import load_annotated_folder  # noqa: E402
 from aamcore.io.landmarks import LandmarkScheme  # noqa: E402
 from aamcore.io.splits import set_name_of, split  # noqa: E402
@@ -67,10 +87,14 @@ from aamcore.io.video import video_frames  # noqa: E402
 from aamcore.tracker import FaceResult, FaceTracker  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from tracking_clips import Clip, generated_clips  # noqa: E402
+from tracking_clips import NONRIGID, Clip, generated_clips, nonrigid_clips  # noqa: E402
+from tracking_parts import HEADER as PARTS_HEADER  # noqa: E402
+from tracking_parts import Pool, parse_scheme, pool_row, run_scheme  # noqa: E402
 from tracking_scores import REACQUIRED_NME, Score, Track, pooled, score, track_of  # noqa: E402
 
 TARGET_GOOD, TARGET_NME, TARGET_REACQUIRE = 0.98, 0.035, 5
+SCHEMES = ("track", "refit:every=8,score=-3.3,failed=1", "previous", "truth", "truth+track")
+"""The schemes compared per part by default."""
 
 
 def track(tracker: FaceTracker, frames: list[np.ndarray], fps: float) -> Track:
@@ -213,6 +237,15 @@ def parse_args() -> argparse.Namespace:
                              "(default N: 2)")
     parser.add_argument("--regenerate", action="store_true",
                         help="generate and write the sequences again")
+    parser.add_argument("--nonrigid", type=int, default=2, metavar="N",
+                        help="non-rigid sequences per set (default 2)")
+    parser.add_argument("--schemes", nargs="+", default=list(SCHEMES), metavar="SCHEME",
+                        help=f"schemes compared per part (default {' '.join(SCHEMES)})")
+    parser.add_argument("--no-refit", action="store_true",
+                        help="the library's tracker without refits from the mean face "
+                             "(Refit NEVER)")
+    parser.add_argument("--parts-only", action="store_true",
+                        help="only the per-part comparison of the schemes")
     return parser.parse_args()
 
 
@@ -268,7 +301,8 @@ def library_runs(tracker: FaceTracker, clips: list[Clip], scheme: LandmarkScheme
 
 
 def print_table(clips: list[Clip], scores: dict[str, Score]) -> Score:
-    """The table of every clip, a summary per set and overall; the overall generated score."""
+    """The table of every clip, a summary per set, overall and over the non-rigid ones; the
+    overall score of the rigid generated sequences (the targets')."""
     print(HEADER)
     groups: dict[str, list[Score]] = {}
     for clip in clips:
@@ -279,9 +313,13 @@ def print_table(clips: list[Clip], scores: dict[str, Score]) -> Score:
         if set_name != "video":
             print(row(f"= {set_name} ({len(group)})", pooled(group)))
         print()
-    generated = [s for name, group in groups.items() if name != "video" for s in group]
+    generated = [s for name, group in groups.items()
+                 if name != "video" and not name.endswith(NONRIGID) for s in group]
     overall = pooled(generated)
     print(row(f"= overall ({len(generated)})", overall))
+    nonrigid = [s for name, group in groups.items() if name.endswith(NONRIGID) for s in group]
+    if nonrigid:
+        print(row(f"= overall{NONRIGID} ({len(nonrigid)})", pooled(nonrigid)))
     return overall
 
 
@@ -309,24 +347,56 @@ def main() -> int:
         scheme = model.aam.scheme
         if scheme.n_points != 68:
             raise SystemExit(f"{model_path}: {scheme.name} points; the sequences have iBUG-68")
-        tracker = FaceTracker(model, algorithm=args.algorithm)
+        tracker = FaceTracker(model, algorithm=args.algorithm,
+                              refit=NEVER if args.no_refit else None)
         print(f"{tracker.tracker.fitter.name} ({args.algorithm}), model {model_path.name} "
               f"({model.aam.summary.get('source', '?')}); OMP_NUM_THREADS="
               f"{os.environ.get('OMP_NUM_THREADS')}, one OpenCV thread")
         generated = generated_clips(model, args.per_set, args.frames, args.regenerate)
-        clips = [Clip("video", "single_face.mp4",
-                      data_root() / "videos" / "single_face.mp4", None), *generated]
-        print()
-        tracks, scores = library_runs(tracker, clips, scheme)
-        overall = print_table(clips, scores)
-        print()
-        results = verdicts(overall)
-        for ok, line in results:
-            print(f"{'PASS' if ok else 'FAIL'}: {line}")
-        if args.via_stack:
+        nonrigid = nonrigid_clips(model, args.nonrigid, args.frames, args.regenerate)
+        results = []
+        if not args.parts_only:
+            clips = [Clip("video", "single_face.mp4",
+                          data_root() / "videos" / "single_face.mp4", None), *generated,
+                     *nonrigid]
+            print()
+            tracks, scores = library_runs(tracker, clips, scheme)
+            overall = print_table(clips, scores)
+            print()
+            results = verdicts(overall)
+            for ok, line in results:
+                print(f"{'PASS' if ok else 'FAIL'}: {line}")
+        compare_parts(tracker.tracker.fitter, generated, nonrigid, args.schemes,
+                      scheme)
+        if args.via_stack and not args.parts_only:
             via_stack(generated[: args.via_stack], tracks, model_path, args.algorithm, scheme)
     print(f"\nbench time {time.perf_counter() - start:.0f} s")
     return 0 if all(ok for ok, _ in results) else 1
+
+
+def compare_parts(fitter: Fitter, rigid: list[Clip], nonrigid: list[Clip], names: list[str],
+                  scheme: LandmarkScheme) -> None:
+    """The per-part table of every scheme on the rigid and on the non-rigid sequences."""
+    schemes = [parse_scheme(name) for name in names]
+    for title, clips in (("rigid", rigid), ("non-rigid", nonrigid)):
+        if not clips:
+            continue
+        print(f"\nPer part, {title} sequences ({len(clips)}, {sum(c.truth.frames for c in clips)}"
+              " frames); good fits outside the occluder, and those with NME < 0.08; NME "
+              "mean/p95 of the good fits outside the occluder; common: mean NME "
+              "of the frames every scheme fits well; time of the tracker (or fitter) alone; "
+              "refits: share of frames, kept: share of refits")
+        print(PARTS_HEADER)
+        pools = {s.name: Pool.empty() for s in schemes}
+        for clip in clips:
+            frames, _ = read_clip(clip.video)
+            runs = {s.name: run_scheme(s, fitter, frames, clip.truth) for s in schemes}
+            common = np.logical_and.reduce([r.ok for r in runs.values()]) & ~clip.truth.occluded
+            for name, run in runs.items():
+                pools[name].add(run, clip.truth, scheme)
+                pools[name].add_common(run, clip.truth, scheme, common)
+        for s in schemes:
+            print(pool_row(s.name, pools[s.name]))
 
 
 if __name__ == "__main__":

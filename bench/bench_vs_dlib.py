@@ -10,7 +10,8 @@ Run: ``PYTHONPATH=. OMP_NUM_THREADS=1 .venv/bin/python bench/bench_vs_dlib.py [-
   (:meth:`Fitter.fit_box`), dlib's by a box-relative mapping from the Haar box
   (or the landmark box) to the box dlib's own HOG face detector gives on the
   training images. NME mean, median, failures (> 0.08, > 0.10) and time per
-  fit, and their ratios to dlib.
+  fit, and their ratios to dlib; then per part of the face (jaw, mouth, brows, nose,
+  eyes) both systems' mean NME and their ratio.
 - Video: ``videos/single_face.mp4`` (640x360, 72 frames), both started on frame
   0 from the same Haar box, then each tracks from its own previous landmarks
   (dlib: its predictor on the mapped box of its previous landmarks) for
@@ -46,7 +47,7 @@ from aamcore.config import cache_dir, data_root, resolve_dataset  # noqa: E402
 from aamcore.detection.boxes import landmark_box, match_detection  # noqa: E402
 from aamcore.detection.haar import HaarFaceDetector  # noqa: E402
 from aamcore.evaluation.fits import haar_box  # noqa: E402
-from aamcore.evaluation.metrics import nme  # noqa: E402
+from aamcore.evaluation.metrics import nme, part_nmes  # noqa: E402
 from aamcore.fitting.fitter import Fitter  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
 from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
@@ -131,8 +132,10 @@ def stats(errors: list[float]) -> dict[str, float]:
             "f08": float(np.mean(e > 0.08)), "f10": float(np.mean(e > 0.10))}
 
 
-def still(fitter, predictor, maps, detector, sample) -> tuple[float, float, float, float, bool]:
-    """Both systems on one face from the same box: NMEs and seconds, and whether Haar missed."""
+def still(fitter, predictor, maps, detector, sample
+          ) -> tuple[float, float, float, float, bool, dict[str, float], dict[str, float]]:
+    """Both systems on one face from the same box: NMEs and seconds, whether Haar missed,
+    and each system's NME per part of the face (``jaw``, ``mouth``, ...)."""
     image = sample.load_image()
     grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
     box = haar_box(detector, image, sample.points)
@@ -144,8 +147,20 @@ def still(fitter, predictor, maps, detector, sample) -> tuple[float, float, floa
     t1 = time.perf_counter()
     shape = predictor(grey, rect)
     t2 = time.perf_counter()
-    return (nme(fit.points, sample.points, IBUG68), nme(points_of(shape), sample.points, IBUG68),
-            t1 - t0, t2 - t1, box is None)
+    theirs = points_of(shape)
+    return (nme(fit.points, sample.points, IBUG68), nme(theirs, sample.points, IBUG68),
+            t1 - t0, t2 - t1, box is None, part_nmes(fit.points, sample.points, IBUG68),
+            part_nmes(theirs, sample.points, IBUG68))
+
+
+PARTS = ("jaw", "mouth", "brows", "nose", "eyes")
+"""The parts of the face whose NME the stills table gives apart."""
+
+
+def part_cell(rows: list, part: str) -> str:
+    """Ours and dlib's mean NME of one part over ``rows`` of :func:`still`, and the ratio."""
+    ours, theirs = (float(np.mean([r[k][part] for r in rows])) for k in (5, 6))
+    return f"{ours:>9.4f} /{theirs:.4f} {ours / theirs:>5.2f}x"
 
 
 def stills(fitter, predictor, maps, detector, test: dict) -> None:
@@ -154,8 +169,10 @@ def stills(fitter, predictor, maps, detector, test: dict) -> None:
           f"{'>0.10':>7}{'ms':>7} | {'dlib: mean':>11}{'median':>8}{'>0.08':>7}{'>0.10':>7}"
           f"{'ms':>7} | {'NME ratio':>9}{'median r':>9}{'time ratio':>11}")
     every = ([], [])
+    parts = {}
     for set_name, samples in test.items():
         rows = [still(fitter, predictor, maps, detector, s) for s in samples]
+        parts[set_name] = rows
         ours, theirs = [r[0] for r in rows], [r[1] for r in rows]
         a, b = stats(ours), stats(theirs)
         every[0].extend(ours)
@@ -166,8 +183,14 @@ def stills(fitter, predictor, maps, detector, test: dict) -> None:
               f"{b['mean']:>11.4f}{b['median']:>8.4f}{b['f08']:>7.1%}{b['f10']:>7.1%}"
               f"{1000 * t_dlib:>7.2f} | {a['mean'] / b['mean']:>9.3f}"
               f"{a['median'] / b['median']:>9.3f}{t_ours / t_dlib:>11.2f}", flush=True)
+    print(f"\nper part, mean NME (ours / dlib, ratio): {'':<2}"
+          + "".join(f"{p:>24}" for p in PARTS))
+    for set_name, rows in parts.items():
+        print(f"{set_name:<38}" + "".join(part_cell(rows, p) for p in PARTS))
+    print(f"{'all':<38}" + "".join(part_cell([r for rows in parts.values() for r in rows], p)
+                                   for p in PARTS))
     a, b = stats(every[0]), stats(every[1])
-    print(f"{'all':<7}{len(every[0]):>5}{'':>5} | {a['mean']:>11.4f}{a['median']:>8.4f}"
+    print(f"\n{'all':<7}{len(every[0]):>5}{'':>5} | {a['mean']:>11.4f}{a['median']:>8.4f}"
           f"{a['f08']:>7.1%}{a['f10']:>7.1%}{'':>7} | {b['mean']:>11.4f}{b['median']:>8.4f}"
           f"{b['f08']:>7.1%}{b['f10']:>7.1%}{'':>7} | {a['mean'] / b['mean']:>9.3f}"
           f"{a['median'] / b['median']:>9.3f}")

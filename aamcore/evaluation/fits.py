@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -23,6 +23,7 @@ from aamcore.detection.haar import HaarFaceDetector
 from aamcore.detection.mapping import BoxToShapeMapping
 from aamcore.evaluation.metrics import (
     nme,
+    part_nmes,
     point_to_border,
     point_to_point,
     procrustes_distance,
@@ -90,6 +91,8 @@ class FitRecord:
         The fitter's own failure test (eq. 7.2).
     iterations : int
     seconds : float
+    parts : dict of str to float
+        NME of each named group of the scheme's points (``jaw``, ``mouth``, ...).
     """
 
     image: str
@@ -104,6 +107,7 @@ class FitRecord:
     failed: bool
     iterations: int
     seconds: float
+    parts: dict[str, float] = field(default_factory=dict)
 
 
 def held_out(aam: AAM, samples: Sequence[FaceSample]) -> list[FaceSample]:
@@ -145,6 +149,7 @@ def _record(
         bool(result.failed),
         int(result.iterations) if isinstance(result, AAMFit) else len(result.seconds),
         seconds,
+        part_nmes(result.points, gt, scheme),
     )
 
 

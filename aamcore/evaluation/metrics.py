@@ -181,6 +181,25 @@ def nme(fit: np.ndarray, gt: np.ndarray, scheme: LandmarkScheme) -> float:
     return point_to_point(a, b) / iod
 
 
+def part_nmes(fit: np.ndarray, gt: np.ndarray, scheme: LandmarkScheme) -> dict[str, float]:
+    """Per named group of the scheme (``jaw``, ``mouth``, ...), the group's mean point
+    error over the ground truth's outer-eye-corner distance.
+
+    Parameters
+    ----------
+    fit, gt : (N, 2) arrays
+
+    Raises
+    ------
+    ValueError
+        As :func:`nme`.
+    """
+    nme(fit, gt, scheme)  # the same checks
+    a, b = _pair(fit, gt)
+    errors = point_errors(a, b) / scheme.inter_ocular(b)
+    return {name: float(errors[list(index)].mean()) for name, index in scheme.groups.items()}
+
+
 def _errors(errors: Sequence[float] | np.ndarray) -> np.ndarray:
     arr = np.asarray(errors, dtype=np.float64).ravel()
     if np.any(arr[np.isfinite(arr)] < 0):

@@ -57,14 +57,17 @@ class StreamRow:
     neutral_reference: bool = False
 
 
-def _deployed(gate: float | None = None, hold: int = 0) -> Callable[[DeployedModels], tuple[
-        ExpressionClassifier, int]]:
+def _deployed(gate: float | None = None, hold: int = 0,
+              reference: dict[str, int] | None = None
+              ) -> Callable[[DeployedModels], tuple[ExpressionClassifier, int]]:
     def make(models: DeployedModels) -> tuple[ExpressionClassifier, int]:
         classifier = models.classifier("bench")
+        pipeline = classifier.pipeline
         if gate is not None:
-            classifier = replace(classifier, pipeline=replace(classifier.pipeline,
-                                                              neutral_gate=gate))
-        return classifier, hold
+            pipeline = replace(pipeline, neutral_gate=gate)
+        if reference is not None:
+            pipeline = replace(pipeline, reference=dict(reference))
+        return replace(classifier, pipeline=pipeline), hold
     return make
 
 
@@ -100,6 +103,9 @@ def stream_rows(stack_hold: int) -> list[StreamRow]:
                   neutral_reference=True),
         StreamRow("deployed, relative trained on neutral references + label hold "
                   f"{stack_hold}", _deployed(hold=stack_hold), neutral_reference=True),
+        StreamRow("deployed, neutral references, reference ready after 4 of every 2nd frame",
+                  _deployed(reference={"window": 120, "stride": 2, "min_count": 4}),
+                  neutral_reference=True),
     ]
 
 

@@ -18,14 +18,17 @@ from aamcore.fitting.result import FitResult
 from aamcore.model.similarity import Similarity
 
 
-def rotated_view(image: np.ndarray, angle: float) -> tuple[np.ndarray, Similarity]:
-    """``image`` turned by ``-angle`` (radians) about its centre, the same size.
+def rotated_view(image: np.ndarray, angle: float, about: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, Similarity]:
+    """``image`` turned by ``-angle`` (radians) about its centre (or ``about``), the same size.
 
     Parameters
     ----------
     image : (H, W) or (H, W, C) array
     angle : float
         The roll to undo, counter-clockwise in ``(x, y)`` (``Similarity.angle``).
+    about : (2,) array, optional
+        The point turned about, which stays where it is (the image's centre by default).
 
     Returns
     -------
@@ -35,7 +38,7 @@ def rotated_view(image: np.ndarray, angle: float) -> tuple[np.ndarray, Similarit
         Maps points of ``image`` to points of ``view``.
     """
     height, width = image.shape[:2]
-    centre = np.array([(width - 1) / 2, (height - 1) / 2])
+    centre = np.array([(width - 1) / 2, (height - 1) / 2]) if about is None else about
     turn = Similarity.from_scale_angle(1.0, -angle)
     tx, ty = centre - turn.apply(centre[None])[0]
     to_view = Similarity(turn.a, turn.b, float(tx), float(ty))

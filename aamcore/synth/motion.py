@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 
 from aamcore.model.similarity import Similarity
+from aamcore.synth.deform import reshape, smooth_noise
 
 SIZE = (640, 360)
 """Canvas width and height."""
@@ -86,16 +87,6 @@ class Sequence:
 
 
 
-def _smooth_noise(rng: np.random.Generator, n: int, cycles: float) -> np.ndarray:
-    """A smooth random curve (n,) in [-1, 1] with about ``cycles`` oscillations."""
-    t = np.linspace(0.0, 1.0, n)
-    curve = np.zeros(n)
-    for k in range(1, 4):
-        curve += rng.normal() / k * np.sin(2 * np.pi * (cycles * k * t + rng.uniform()))
-    peak = np.abs(curve).max()
-    return curve / peak if peak > 0 else curve
-
-
 def trajectory(spec: MotionSpec, points: np.ndarray) -> list[Similarity]:
     """Per-frame similarities taking the photo's landmarks ``points`` (N, 2) onto the canvas."""
     rng = np.random.default_rng(spec.seed)
@@ -104,11 +95,11 @@ def trajectory(spec: MotionSpec, points: np.ndarray) -> list[Similarity]:
     base = FACE_WIDTH / float(hi[0] - lo[0])
     centre = (lo + hi) / 2
     log_lo, log_hi = np.log(spec.scales[0]), np.log(spec.scales[1])
-    scale = np.exp((log_lo + log_hi) / 2 + (log_hi - log_lo) / 2 * _smooth_noise(rng, n, 1.0))
-    angle = np.radians(spec.max_angle_deg) * _smooth_noise(rng, n, spec.speed)
+    scale = np.exp((log_lo + log_hi) / 2 + (log_hi - log_lo) / 2 * smooth_noise(rng, n, 1.0))
+    angle = np.radians(spec.max_angle_deg) * smooth_noise(rng, n, spec.speed)
     margin = np.array([SIZE[0], SIZE[1]]) / 2 - FACE_WIDTH * 0.8
-    shift = np.stack([margin[0] * _smooth_noise(rng, n, spec.speed),
-                      margin[1] * _smooth_noise(rng, n, spec.speed)], axis=1)
+    shift = np.stack([margin[0] * smooth_noise(rng, n, spec.speed),
+                      margin[1] * smooth_noise(rng, n, spec.speed)], axis=1)
     out = []
     for k in range(n):
         s = Similarity.from_scale_angle(base * scale[k], angle[k])
@@ -170,17 +161,30 @@ def _blur(frame: np.ndarray, motion: np.ndarray) -> np.ndarray:
     return cv2.filter2D(frame, -1, kernel)
 
 
-def generate(photo: np.ndarray, points: np.ndarray, spec: MotionSpec = MotionSpec()) -> Sequence:
-    """A sequence of ``photo`` (H, W, 3) with its landmarks ``points`` (N, 2) moving as ``spec``."""
+def generate(photo: np.ndarray, points: np.ndarray, spec: MotionSpec = MotionSpec(),
+             shapes: np.ndarray | None = None) -> Sequence:
+    """A sequence of ``photo`` (H, W, 3) with its landmarks ``points`` (N, 2) moving as ``spec``.
+
+    With ``shapes`` (F, N, 2), the face also changes shape: on frame ``k`` the photo is
+    warped (:func:`aamcore.synth.deform.reshape`) so that its landmarks, in the photo's
+    coordinates, are at ``shapes[k]`` before the motion moves them; they are that frame's
+    truth.
+    """
+    if shapes is not None and shapes.shape != (spec.frames, *points.shape):
+        raise ValueError(f"shapes {shapes.shape} for {spec.frames} frames of {points.shape}")
     rng = np.random.default_rng(spec.seed + 1)
     sims = trajectory(spec, points)
-    light = spec.brightness * _smooth_noise(rng, spec.frames, 1.5)
+    light = spec.brightness * smooth_noise(rng, spec.frames, 1.5)
     frames, truths, occluded, covered = [], [], [], []
     background = cv2.resize(cv2.GaussianBlur(photo, (0, 0), 25), SIZE)
     for k, sim in enumerate(sims):
         frame = cv2.warpAffine(photo, sim.matrix, SIZE, dst=background.copy(),
                                borderMode=cv2.BORDER_TRANSPARENT)
         truth = sim.apply(points)
+        if shapes is not None:
+            target = sim.apply(shapes[k])
+            frame = reshape(frame, photo, sim, truth, target)
+            truth = target
         if spec.blur and k > 0:
             frame = _blur(frame, truth.mean(axis=0) - truths[-1].mean(axis=0))
         shade = light[k] + (rng.normal(0, spec.noise, frame.shape) if spec.noise else 0)

@@ -11,10 +11,14 @@ import pytest
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
-from aamcore.fitting.tracker import Tracker
+from aamcore.fitting.tracker import DEFAULT_REFIT, NEVER, Refit, Tracker
 from aamcore.fitting.upright import rotated_view
+from aamcore.io import load_annotated_folder
+from aamcore.io.splits import split
 from aamcore.io.video import video_frames
 from aamcore.model.similarity import Similarity
+from aamcore.synth.deform import ExpressionSpec, expression_shapes
+from aamcore.synth.motion import MotionSpec, Sequence, generate
 
 
 @pytest.fixture(scope="module")
@@ -166,3 +170,45 @@ def test_a_lost_rolled_face_is_found_after_a_long_stretch(tracker: Tracker, face
         assert result is None or result.failed
     back = [tracker.track(turned(faces[10 + k], 35.0)[0]) for k in range(5)]
     assert any(r is not None and r.ok for r in back)
+
+
+@pytest.fixture(scope="module")
+def changing_face(lfpw_dir: Path) -> Sequence:
+    """A held-out LFPW face that opens its mouth, drops its jaw, smiles and raises its brows
+    over 45 frames of slow motion."""
+    _, test = split(load_annotated_folder(lfpw_dir).samples, "lfpw")
+    face, other = test[4], test[9]
+    spec = MotionSpec(frames=45, max_angle_deg=10.0, scales=(0.9, 1.1), speed=0.5, seed=11)
+    shapes = expression_shapes(face.points, [other.points], 45, ExpressionSpec(seed=11))
+    return generate(face.load_image(), face.points, spec, shapes)
+
+
+def mean_error(tracker: Tracker, sequence: Sequence) -> tuple[float, int]:
+    """Mean point error over the truth's eye-corner distance of the good fits, and their
+    count."""
+    errors = []
+    for frame, truth in zip(sequence.frames, sequence.landmarks, strict=True):
+        result = tracker.track(frame)
+        if result is not None and result.ok:
+            iod = np.linalg.norm(truth[45] - truth[36])
+            errors.append(np.linalg.norm(result.points - truth, axis=1).mean() / iod)
+    return float(np.mean(errors)), len(errors)
+
+
+def test_refits_from_the_mean_face_keep_no_more_error_than_tracking(
+    model_path: Path, changing_face: Sequence,
+) -> None:
+    fitter = Fitter(FittingModel.load(model_path))
+    assert Tracker(fitter).refit == DEFAULT_REFIT and not DEFAULT_REFIT.never
+    plain = Tracker(fitter, refit=NEVER)
+    assert NEVER.never
+    tracked, tracked_good = mean_error(plain, changing_face)
+    assert plain.refits == 0
+    hybrid = Tracker(fitter, refit=Refit(every=4, failed=True))
+    refitted, refitted_good = mean_error(hybrid, changing_face)
+    # every fourth tracked frame refits; a refit replaces a tracked fit only when its
+    # quality score says it is better, so what is kept is no worse than tracking alone
+    assert hybrid.refits >= (refitted_good - 1) // 4 and hybrid.refits > 0
+    assert 0 <= hybrid.kept <= hybrid.refits
+    assert refitted_good >= tracked_good - 2
+    assert refitted <= 1.05 * tracked, (refitted, tracked)
