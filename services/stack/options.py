@@ -67,8 +67,9 @@ class LaunchOptions(Options):
     record: str | None = option(None, "record every result message to FILE", metavar="FILE")
     record_images: bool = option(False, "with --record: frames and overlays too")
     summary: str | None = option(None, "write the run's summary as JSON", metavar="FILE")
-    smooth: bool | None = option(None, "smooth landmarks and pose over time, One Euro filter "
-                                 "(default: as the fitter and pose services, on)")
+    smooth: bool | None = option(None, "smooth landmarks and pose over time (One Euro filter) "
+                                 "and hold expression labels (default: as the fitter, pose "
+                                 "and expression services, on)")
     restart: bool = option(True, "restart services that die")
     start_timeout: float = option(120.0, "seconds to wait for the services to start",
                                   check=in_range(1))
@@ -160,6 +161,8 @@ def stack_options(args: argparse.Namespace, base: StackOptions | None = None) ->
     if launch.smooth is not None:
         services.update({name: services[name].replace(smooth=launch.smooth)
                          for name in ("fitter", "pose") if name in services})
+        if "expression" in services and not launch.smooth:
+            services["expression"] = services["expression"].replace(hold=0)
     if "source" in services and not services["source"].has_input:
         raise OptionError("give the input: --video FILE, --camera INDEX or --url URL")
     services.update(keep_every_fit(services))

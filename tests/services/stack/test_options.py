@@ -19,6 +19,8 @@ def test_no_smooth_reaches_fitter_and_pose() -> None:
     opts = parse_run_args(["--video", "clip.mp4", "--no-smooth"])
     assert not opts.services["fitter"].smooth
     assert not opts.services["pose"].smooth
+    assert opts.services["expression"].hold == 0
+    assert parse_run_args(["--video", "clip.mp4"]).services["expression"].hold > 0
 
 
 def test_an_output_starts_the_rerun_service() -> None:

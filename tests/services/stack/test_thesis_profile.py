@@ -8,9 +8,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_limits
 
 from aamcore import FaceTracker
 from aamcore.expression import ExpressionClassifier
+from aamcore.expression.recogniser import STACK_HOLD
 from aamcore.expression.training import classifier_path as cached_classifier
 from aamcore.profiles import profile_named
 from services.stack.launcher import Stack, prepared
@@ -56,14 +58,20 @@ def test_the_thesis_profile_runs_end_to_end_and_the_library_agrees(
     assert with_face and all(f.appearance is not None and f.warp_path == "cpu"
                              for f in with_face)
     assert max(f.appearance.iterations for f in with_face) >= 1
-    tracker = FaceTracker(model_path, thesis_classifier, profile="thesis", smoothing=True)
+    tracker = FaceTracker(model_path, thesis_classifier, profile="thesis", smoothing=True,
+                          expression_hold=STACK_HOLD)
     assert profile_named("thesis").fitter == tracker.config
-    for k, result in enumerate(tracker.process_video(single_face)):
+    # The services run on one BLAS thread: so does the library here, else the AAM's
+    # iterations may differ in the last bits (0.004 px seen with two threads).
+    with threadpool_limits(limits=1):
+        results = list(tracker.process_video(single_face))
+    assert all(e.label or e.reason for e in expressions.values())
+    for k, result in enumerate(results):
         fit = fits[k]
         assert result.success == (not fit.failed), k
         np.testing.assert_allclose(result.landmarks, fit.landmarks, atol=1e-3, err_msg=str(k))
         if k in poses:
             np.testing.assert_allclose(result.rotation, poses[k].rotation, atol=1e-5)
-        assert (result.expression is not None) == (k in expressions), k
-        if k in expressions:
-            assert result.expression == expressions[k].label
+        assert (result.expression or "") == expressions[k].label, k
+        if not expressions[k].label:
+            assert result.expression_reason == expressions[k].reason, k
