@@ -258,7 +258,7 @@ class ExpressionLogger:
     def log(self, msg: Expression) -> None:
         """Log the probabilities of ``msg`` on ``series/expression/<class>``; a frame without a
         label logs no series point (its reason ends the label shown)."""
-        for name, score in zip(msg.class_names, msg.scores, strict=True):
+        for name, score in zip(msg.class_names if msg.label else (), msg.scores, strict=True):
             self._series.scalar(ent.child(ent.EXPRESSION_SERIES, name), float(score), name)
         if msg.label != self._label:
             self._label = msg.label

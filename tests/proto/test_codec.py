@@ -200,7 +200,9 @@ def largest_messages() -> list[Message]:
             FitAppearance(side, np.zeros((128, 512)), 1.0, MAX_INT, True,
                           np.ones(MAX_DIM, np.uint8)),
         ),
-        Expression(header, names[0], names, np.zeros(MAX_LIST_LEN), smoothed=True),
+        Expression(header, names[0], names, np.full(MAX_LIST_LEN, 1 / MAX_LIST_LEN),
+                   smoothed=True, reason=""),
+        Expression(header, "", names, np.zeros(0), smoothed=True, reason=text),
         Status(header, "s" * 64, "running", *[MAX_INT] * 7, 1.0, 1.0, MAX_INT, text),
         EndOfStream(header, MAX_INT, text),
     ]

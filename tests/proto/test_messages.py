@@ -157,14 +157,26 @@ def test_head_pose_rules(golden: dict[str, Message]) -> None:
 
 def test_expression_rules() -> None:
     names = ["neutral", "happy"]
-    ok = Expression(HEADER, "happy", names, [0.25, 0.75], smoothed=False)
+    ok = Expression(HEADER, "happy", names, [0.25, 0.75], smoothed=False, reason="")
     assert ok.class_names == ("neutral", "happy")
     with pytest.raises(ProtoError, match="'sad' is not in class_names"):
-        Expression(HEADER, "sad", names, [0.25, 0.75], smoothed=False)
+        Expression(HEADER, "sad", names, [0.25, 0.75], smoothed=False, reason="")
     with pytest.raises(ProtoError, match="1 scores for 2 classes"):
-        Expression(HEADER, "happy", names, [0.25], smoothed=False)
+        Expression(HEADER, "happy", names, [1.0], smoothed=False, reason="")
     with pytest.raises(ProtoError, match="distinct"):
-        Expression(HEADER, "happy", ["happy", "happy"], [0.25, 0.75], smoothed=False)
+        Expression(HEADER, "happy", ["happy", "happy"], [0.25, 0.75], smoothed=False, reason="")
+    with pytest.raises(ProtoError, match="probabilities sum to 1.5000, not 1"):
+        Expression(HEADER, "happy", names, [0.75, 0.75], smoothed=False, reason="")
+    # A frame without a label: no scores, and the reason; never one without the other.
+    none = Expression(HEADER, "", names, [], smoothed=False, reason="no face")
+    assert none.label == "" and len(none.scores) == 0
+    assert decode(encode(none), "expression").reason == "no face"
+    with pytest.raises(ProtoError, match="non-empty exactly when label is empty"):
+        Expression(HEADER, "", names, [], smoothed=False, reason="")
+    with pytest.raises(ProtoError, match="non-empty exactly when label is empty"):
+        Expression(HEADER, "happy", names, [0.25, 0.75], smoothed=False, reason="no face")
+    with pytest.raises(ProtoError, match="without a label has no scores"):
+        Expression(HEADER, "", names, [0.25, 0.75], smoothed=False, reason="no face")
 
 
 def test_status_and_end_of_stream_rules(golden: dict[str, Message]) -> None:

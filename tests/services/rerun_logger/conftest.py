@@ -324,7 +324,7 @@ def face_messages(sample: FaceSample, index: int, failed: bool = False) -> list[
                  intrinsics_source="assumed:fov60", iterations=1, reliable=True, reason="",
                  angle_sd_deg=0.5),
         Expression(header("expression", index, 35.0 + index), label=CLASSES[int(np.argmax(scores))],
-                   class_names=CLASSES, scores=scores, smoothed=False),
+                   class_names=CLASSES, scores=scores, smoothed=False, reason=""),
         Overlay.from_jpeg(header("ar", index, 50.0 + index), jpeg.tobytes(), width, height),
     ]
 

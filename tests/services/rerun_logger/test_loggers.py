@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import cv2
@@ -257,6 +258,23 @@ def test_expression_logger_logs_one_series_per_class(new_recording, rrd_tools, f
     labels = [e.label for e in expressions]
     changes = 1 + sum(a != b for a, b in zip(labels, labels[1:], strict=False))
     assert len(content.mono("/" + ent.EVENTS, "TextLog:text")) == changes
+
+
+def test_a_frame_without_a_label_logs_its_reason_and_no_scores(new_recording, rrd_tools, faces,
+                                                              messages_of):
+    rec = new_recording()
+    logger = ExpressionLogger(rec.stream, SeriesWriter(rec.stream))
+    labelled = messages_of(faces[0], 0)[4]
+    _at(rec, 0)
+    logger.log(labelled)
+    _at(rec, 1)
+    logger.log(dataclasses.replace(labelled, label="", scores=np.zeros(0, np.float32),
+                                   reason="face covered: 40 % of the inner landmarks occluded"))
+    content = _finished(rec, rrd_tools)
+    texts = content.mono("/" + ent.EVENTS, "TextLog:text")
+    assert len(texts) == 2 and "no expression: face covered" in str(texts[-1])
+    name = labelled.class_names[0]
+    assert len(content.mono(f"/{ent.EXPRESSION_SERIES}/{name}", "Scalars:scalars")) == 1
 
 
 def test_latency_logger_logs_each_stage_from_the_header(
