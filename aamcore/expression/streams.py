@@ -166,18 +166,44 @@ class StreamScores:
         return float(p.mean()), float(ok.mean()), reliability(p, ok)
 
 
+Peer = Callable[[np.ndarray], tuple[str | None, np.ndarray | None]]
+"""A classifier of whole frames (a benchmark's peer): its label (a JAFFE class code) and its
+probabilities, or (None, None) when it finds no face."""
+
+
+def _score(out: StreamScores, row: str, opening: str, frames: Sequence[int],
+           truth: np.ndarray, answers: Sequence[tuple[str | None, float]]) -> None:
+    """Count one stream's answers (label or None, its probability) against the truth."""
+    last = None
+    for i, (label, p) in zip(frames, answers, strict=True):
+        out.total[row][opening] += 1
+        if label is None:
+            last = None
+            continue
+        ok = label == truth[i]
+        out.right[row][opening] += ok
+        out.confidence[row].append(p)
+        out.correct[row].append(ok)
+        if last is not None and last[0] == i and last[1] != label:
+            out.changes[row] += 1
+        last = (i, label)
+
+
 def run_streams(faces: JaffeFaces, appearance_dim: int, rows: Sequence[StreamRow],
                 openings: Sequence[str] = SEVEN_CLASSES, seed: int = 0,
-                progress: Callable[[str], None] | None = None) -> StreamScores:
-    """Every held-out poser's stream for every opening, through every row (module docstring).
+                progress: Callable[[str], None] | None = None,
+                peers: dict[str, Peer] | None = None) -> StreamScores:
+    """Every held-out poser's stream for every opening, through every row (module docstring),
+    and through each peer (a row named after it, fed the same frames).
 
     A frame without a label counts as wrong.
     """
     out = StreamScores()
-    for row in rows:
-        out.right[row.name] = dict.fromkeys(openings, 0)
-        out.total[row.name] = dict.fromkeys(openings, 0)
-        out.confidence[row.name], out.correct[row.name], out.changes[row.name] = [], [], 0
+    names = [row.name for row in rows] + list(peers or {})
+    for name in names:
+        out.right[name] = dict.fromkeys(openings, 0)
+        out.total[name] = dict.fromkeys(openings, 0)
+        out.confidence[name], out.correct[name], out.changes[name] = [], [], 0
     posers = faces.posers.astype(str)
     labels = faces.labels.astype(str)
     for poser in np.unique(posers):
@@ -191,27 +217,25 @@ def run_streams(faces: JaffeFaces, appearance_dim: int, rows: Sequence[StreamRow
             shown = [moved(faces.observations[i], rng) for i in frames]
             for row, classifier, hold in made:
                 recogniser = ExpressionRecogniser(classifier, hold=hold)
-                last = None
-                for k, (i, obs) in enumerate(zip(frames, shown, strict=True)):
+                answers: list[tuple[str | None, float]] = []
+                for k, obs in enumerate(shown):
                     found = recogniser.recognise(k, obs.image, obs.landmarks if
                                                  obs.landmarks.size else None, obs.appearance,
                                                  obs.fit_failed, obs.fit_reason)
-                    truth = labels[i]
-                    out.total[row.name][opening] += 1
                     if found.label is None or found.scores is None:
-                        last = None
-                        continue
-                    ok = found.label == truth
-                    out.right[row.name][opening] += ok
-                    column = found.class_names.index(found.label)
-                    out.confidence[row.name].append(float(found.scores[column]))
-                    out.correct[row.name].append(ok)
-                    if last is not None and last[0] == i and last[1] != found.label:
-                        out.changes[row.name] += 1
-                    last = (i, found.label)
+                        answers.append((None, 0.0))
+                    else:
+                        column = found.class_names.index(found.label)
+                        answers.append((found.label, float(found.scores[column])))
+                _score(out, row.name, opening, frames, labels, answers)
+            for name, peer in (peers or {}).items():
+                answers = []
+                for obs in shown:
+                    label, p = peer(obs.image)
+                    answers.append((label, 0.0 if p is None else float(p.max())))
+                _score(out, name, opening, frames, labels, answers)
         if progress is not None:
-            progress(f"poser {poser}: " + ", ".join(
-                f"{out.rate(r.name):.3f}" for r in rows))
+            progress(f"poser {poser}: " + ", ".join(f"{out.rate(n):.3f}" for n in names))
     return out
 
 
