@@ -193,7 +193,8 @@ class DeployedModels:
 def calibrated(X: np.ndarray, y: np.ndarray, groups: np.ndarray, dims: Mapping[str, int],
                variant: Variant) -> tuple[FittedFaceClassifier, float]:
     """``variant``'s classifier of X (n, d) and the temperature of its scores, fitted on
-    each poser's faces scored by a classifier trained without that poser."""
+    held-out posers' faces, each scored by a classifier trained without them
+    (:func:`~aamcore.expression.calibration.held_out_scores`)."""
 
     def fit(Xt: np.ndarray, yt: np.ndarray, gt: np.ndarray) -> Any:
         return fit_face_classifier(Xt, yt, gt, dims, variant.weights, variant.classifier).scores
@@ -223,7 +224,7 @@ def train_deployed(
     classifiable faces (as in the benchmark); ``reference`` holds the stream
     settings the spec carries to the library and the service. A relative
     variant also gets the person-independent model of the absolute vectors.
-    Both are calibrated leave-one-poser-out. With ``neutral_reference`` each
+    Both are calibrated on held-out posers. With ``neutral_reference`` each
     face's reference is the median of its poser's neutral faces instead, as a
     stream's is made of the frames called neutral.
     """

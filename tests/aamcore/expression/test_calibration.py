@@ -45,6 +45,9 @@ def test_held_out_scores_come_from_a_model_that_did_not_see_the_group() -> None:
     out = held_out_scores(fit, X, y, groups)
     assert out.shape == (12, 2) and np.allclose(out[:, 0], X[:, 0])
     assert seen == [{"q", "r"}, {"p", "r"}, {"p", "q"}]
+    seen.clear()
+    held_out_scores(fit, X, y, groups, folds=2)  # p and r together, q alone
+    assert seen == [{"q"}, {"p", "r"}]
 
 
 def test_reliability_bins_count_every_face_once() -> None:
