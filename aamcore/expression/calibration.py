@@ -15,8 +15,10 @@ from collections.abc import Callable
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-CALIBRATION_FOLDS = 5
-"""Folds of held-out posers the temperature is fitted on."""
+CALIBRATION_FOLDS = 10
+"""Folds of held-out posers the temperature is fitted on: one poser each for JAFFE's ten
+(with five folds of two the scores came from classifiers of 8 posers, not 9, and the
+probabilities were 6.5 points under their accuracy against 4.5 with ten)."""
 LOG_T_RANGE = (-6.0, 6.0)
 """Bounds of ``log T``: any calibrated temperature lies far inside."""
 
@@ -61,7 +63,7 @@ def held_out_scores(fit: Callable[[np.ndarray, np.ndarray, np.ndarray],
     """Every row's scores (n, C) by a classifier trained without its group (poser).
 
     The groups are dealt round-robin into at most ``folds`` folds, each scored by a
-    classifier trained on the others (JAFFE's 10 posers: 5 folds of 2).
+    classifier trained on the others (JAFFE's 10 posers: one each).
     ``fit(X, y, groups)`` returns a function of rows giving scores in the column order of
     ``np.unique(y)`` of its training rows.
     """

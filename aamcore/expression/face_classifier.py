@@ -9,8 +9,8 @@ kernel's distance.
 
 :func:`fit_face_classifier` trains one of :data:`CLASSIFIERS` behind the
 block scaler and returns a pure numpy predictor: :class:`LinearModel` for
-shrinkage LDA (the deployed classifier), :class:`~aamcore.expression.svm.SVMModel`
-for the RBF SVM; both are saved without pickle by
+shrinkage LDA (the deployed classifier, solved by :mod:`.shrinkage_lda`),
+:class:`~aamcore.expression.svm.SVMModel` for the RBF SVM; both are saved without pickle by
 :class:`~aamcore.expression.classifier_file.ExpressionClassifier`.
 """
 
@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
-from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from aamcore.expression.shrinkage_lda import shrinkage_lda
 from aamcore.expression.svm import SVMModel, tune_svm
 
 CLASSIFIERS: tuple[str, ...] = ("lda", "rbf_svm")
@@ -230,11 +230,10 @@ def fit_face_classifier(
     Z = scaler.transform(X)
     if classifier == "rbf_svm":
         return _rbf_svm(scaler, Z, y, groups, inner_splits)
-    lda = LinearDiscriminantAnalysis(solver="lsqr", shrinkage="auto").fit(Z, y)
-    coef = np.atleast_2d(lda.coef_).astype(np.float64)
-    intercept = np.atleast_1d(lda.intercept_).astype(np.float64)
-    if coef.shape[0] == 1:  # two classes: one score, negated for the first class
-        coef, intercept = np.vstack([-coef, coef]), np.concatenate([-intercept, intercept])
+    classes, coef, intercept = shrinkage_lda(Z, y)
+    if len(classes) == 2:  # one score, negated for the first class, as scikit-learn's
+        coef = np.vstack([coef[0] - coef[1], coef[1] - coef[0]])
+        intercept = np.array([intercept[0] - intercept[1], intercept[1] - intercept[0]])
     model = LinearModel(scaler.mean_.copy(), scaler.scale_.copy(), coef, intercept)
-    return FittedFaceClassifier(model, tuple(str(c) for c in lda.classes_), "linear",
+    return FittedFaceClassifier(model, tuple(str(c) for c in classes), "linear",
                                 {"classifier": "lda"})

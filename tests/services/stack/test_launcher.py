@@ -334,16 +334,25 @@ def test_services_die_with_a_killed_launcher_and_the_next_run_is_clean(
 ) -> None:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     env = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO_ROOT)}
-    launcher = subprocess.Popen(
-        [sys.executable, "-m", "services", "run", "--video", str(single_face), "--loop", "0",
-         "--no-ar", "--model", str(model_path), "--classifier", str(classifier_path),
-         "--endpoint", endpoint], env=env, cwd=REPO_ROOT,
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    log = tmp_path / "launcher.log"
+    with log.open("wb") as err:
+        launcher = subprocess.Popen(
+            [sys.executable, "-m", "services", "run", "--video", str(single_face), "--loop",
+             "0", "--no-ar", "--model", str(model_path), "--classifier", str(classifier_path),
+             "--endpoint", endpoint], env=env, cwd=REPO_ROOT,
+            stdout=subprocess.DEVNULL, stderr=err)
     try:
+        # A program joins a running stack: it connects once the launcher listens, so that it
+        # never holds the launcher's port itself (a connect to a port nobody listens on can
+        # be given that port as its own).
+        wait_for(lambda: "stack bus at" in log.read_text() or launcher.poll() is not None,
+                 "the launcher did not start", timeout=120)
+        assert launcher.poll() is None, log.read_text()[-4000:]
         probe_bus = BusOptions("cam0", listen=("tcp/127.0.0.1:0",), connect=(endpoint,))
         with Service("probe", probe_bus, handle_signals=False) as probe:
             fits = probe.inbox("fit", capacity=4)
-            assert fits.get(120) is not None, "the stack produced no fits"
+            got = fits.get(120)
+            assert got is not None, f"the stack produced no fits:\n{log.read_text()[-4000:]}"
         children = _children(launcher.pid)
         assert len(children) >= 5, children  # the services (and multiprocessing's tracker)
         launcher.send_signal(signal.SIGKILL)
