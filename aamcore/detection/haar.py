@@ -8,7 +8,9 @@ a face, not on every tracked frame.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -192,6 +194,38 @@ class HaarFaceDetector:
         self.min_size = (int(min_size[0]), int(min_size[1]))
         self.max_side = max_side
         self.equalize = equalize
+
+    def settings(self) -> dict[str, Any]:
+        """The search settings, as :meth:`from_settings` takes them (the cascade aside)."""
+        return {"scale_factor": self.scale_factor, "min_neighbors": self.min_neighbors,
+                "min_size": list(self.min_size), "max_side": self.max_side,
+                "equalize": bool(self.equalize)}
+
+    @classmethod
+    def from_settings(cls, settings: Mapping[str, Any]) -> HaarFaceDetector:
+        """A detector with the default cascade and :meth:`settings` ``settings``.
+
+        Raises
+        ------
+        ValueError
+            For a missing, extra or out-of-range setting.
+        """
+        names = {"scale_factor", "min_neighbors", "min_size", "max_side", "equalize"}
+        if not isinstance(settings, Mapping) or set(settings) != names:
+            raise ValueError(f"Haar settings must name exactly {sorted(names)}")
+        try:
+            size = settings["min_size"]
+            max_side = settings["max_side"]
+            scale_factor = float(settings["scale_factor"])
+            if not np.isfinite(scale_factor):
+                raise ValueError(f"scale_factor must be finite, got {scale_factor}")
+            return cls(scale_factor=scale_factor,
+                       min_neighbors=int(settings["min_neighbors"]),
+                       min_size=(int(size[0]), int(size[1])) if len(size) == 2 else (),
+                       max_side=None if max_side is None else int(max_side),
+                       equalize=bool(settings["equalize"]))
+        except (TypeError, IndexError, OverflowError) as exc:
+            raise ValueError(f"Haar settings of the wrong type: {exc}") from None
 
     def __repr__(self) -> str:
         return (

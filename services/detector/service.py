@@ -8,11 +8,14 @@ that does not decode). The fitter asks when it has no face or a fit fails, on th
 frames its search schedule picks (:class:`aamcore.fitting.search.SearchSchedule`):
 that is the only search, so no frame is searched twice. Every answer is also
 published on ``aamtrack/<stream>/boxes`` (the Rerun logger draws them). Haar
-cascades give no confidence, so each box scores 1.
+cascades give no confidence, so each box scores 1. Every reply's attachment is
+the detector's search settings (JSON of ``HaarFaceDetector.settings()``): the
+fitter's local fall-back searches with them while this service is gone.
 """
 
 from __future__ import annotations
 
+import json
 import threading
 import time
 from collections.abc import Sequence
@@ -39,6 +42,9 @@ class Detection:
         self.svc = svc
         self.detector = detector
         self.lock = threading.Lock()
+        self.settings = json.dumps(detector.settings()).encode()
+        """Sent with every reply, so that a fitter that detects locally while this service
+        is gone searches as it does."""
 
     def boxes(self, frame: Frame) -> FaceBoxes:
         """Detect in ``frame`` and return the boxes message for it."""
@@ -65,7 +71,7 @@ class Detection:
             query.reply_err(str(exc).encode()[:1000])
             return
         data = encode(boxes)
-        query.reply(query.key_expr, data)
+        query.reply(query.key_expr, data, attachment=self.settings)
         self.svc.publish(boxes)
 
 

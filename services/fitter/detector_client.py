@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import time
 from typing import Any
 
@@ -11,6 +12,9 @@ from aamcore.detection.haar import HaarFaceDetector
 from proto import Frame, ProtoError, decode, encode
 from proto.keys import detect_key
 from services.bus.session import Service
+
+MAX_SETTINGS_BYTES = 1024
+"""The longest settings attachment read from a detector reply."""
 
 
 class ServiceDetector:
@@ -39,6 +43,9 @@ class ServiceDetector:
         self.local_detections = 0
         self._querier = svc.querier(detect_key(svc.stream), timeout)
         self._local: HaarFaceDetector | None = None
+        self._settings: dict[str, Any] | None = None
+        """The detector service's settings, from its latest reply; the local fall-back
+        searches with them (the library's defaults before any reply)."""
         self._local_until = 0.0
         self._image: np.ndarray | None = None
         self._payload = b""
@@ -80,14 +87,37 @@ class ServiceDetector:
             if (boxes.image_width, boxes.image_height) != (image.shape[1], image.shape[0]):
                 self.svc.reject("detector reply", "boxes for a frame of another size")
                 continue
+            self._adopt(reply.ok.attachment)
             return boxes.boxes.astype(np.float64)
         return None
 
-    def _detect_locally(self, image: np.ndarray) -> np.ndarray:
+    def _adopt(self, attachment: Any) -> None:
+        """Keep the settings a reply carries, when they are valid ones."""
+        raw = attachment.to_bytes() if attachment is not None else b""
+        if not raw or len(raw) > MAX_SETTINGS_BYTES:
+            return
+        try:
+            settings = json.loads(raw)
+            if settings != self._settings:
+                self._local = HaarFaceDetector.from_settings(settings)
+                self._settings = settings
+        except (ValueError, RuntimeError, RecursionError) as exc:
+            self.svc.reject("detector reply", f"detector settings refused: {exc}"[:200])
+
+    @property
+    def local_settings(self) -> dict[str, Any]:
+        """The settings the local fall-back searches with."""
+        return self._local_detector().settings()
+
+    def _local_detector(self) -> HaarFaceDetector:
         if self._local is None:
-            self._local = HaarFaceDetector()
+            self._local = (HaarFaceDetector.from_settings(self._settings) if self._settings
+                           else HaarFaceDetector())
+        return self._local
+
+    def _detect_locally(self, image: np.ndarray) -> np.ndarray:
         self.local_detections += 1
-        return self._local.detect(image)
+        return self._local_detector().detect(image)
 
 
 def _err_text(reply: Any) -> str:

@@ -159,3 +159,15 @@ def test_unloadable_cascade_raises(tmp_path: Path) -> None:
 def test_bad_parameters_raise(kwargs: dict[str, object]) -> None:
     with pytest.raises(ValueError):
         HaarFaceDetector(**kwargs)  # type: ignore[arg-type]
+
+
+def test_settings_round_trip_and_bad_settings_are_refused() -> None:
+    detector = HaarFaceDetector(scale_factor=1.25, min_neighbors=4, min_size=(50, 40),
+                                max_side=480, equalize=True)
+    settings = detector.settings()
+    assert HaarFaceDetector.from_settings(settings).settings() == settings
+    for bad in ({**settings, "scale_factor": float("inf")}, {**settings, "min_size": [50]},
+                {**settings, "min_neighbors": "many"}, {k: settings[k] for k in list(settings)[1:]},
+                {**settings, "cascade": "x.xml"}, [1, 2, 3]):
+        with pytest.raises(ValueError):
+            HaarFaceDetector.from_settings(bad)  # type: ignore[arg-type]
