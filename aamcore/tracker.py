@@ -261,8 +261,8 @@ class FaceTracker:
         if fit is None or smoothed is None:
             self.pose.reset()
             found = self.recognise(index, frame, None, None)
-            return FaceResult(index, t, False, 0.0, np.zeros((0, 2)), reason=NO_FACE,
-                              expression_reason=found.reason if found else "")
+            return joined_result(index, t, np.zeros((0, 2)), False, 0.0, None, NO_FACE, None,
+                                 None, None, (), None, found.reason if found else "")
         points = smoothed.points
         try:
             pose, why = self.pose.update(points, frame.shape[1], frame.shape[0], t,
@@ -311,23 +311,60 @@ class FaceTracker:
             capture.release()
 
 
+@dataclass(frozen=True)
+class PoseParts:
+    """The head pose of one frame as a result carries it (from the library's estimate or a
+    ``pose`` message)."""
+
+    rotation: np.ndarray
+    translation_mm: np.ndarray
+    roll_deg: float
+    pitch_deg: float
+    yaw_deg: float
+    reliable: bool
+    reason: str = ""
+
+
+def joined_result(index: int, t: float, points: np.ndarray, success: bool, confidence: float,
+                  similarity: Similarity | None, reason: str, occluded: np.ndarray | None,
+                  pose: PoseParts | None, label: str | None, class_names: tuple[str, ...],
+                  scores: np.ndarray | None, expression_reason: str) -> FaceResult:
+    """The one join of a frame's fit, pose and expression into a :class:`FaceResult`, for the
+    library (:func:`result_of`) and for a recording's messages (``aamtrack export``).
+
+    Without landmarks the frame has no face (``reason`` or "no face"); a pose is reliable
+    only on a good fit; the fit's reason comes before the pose's; scores come with a label.
+    """
+    if len(points) == 0:
+        return FaceResult(index, t, False, 0.0, np.zeros((0, 2)), reason=reason or NO_FACE,
+                          expression_reason=expression_reason)
+    named = ({} if label is None or scores is None
+             else dict(zip(class_names, map(float, scores), strict=True)))
+    common: dict[str, Any] = dict(similarity=similarity, expression=label,
+                                  expression_scores=named, expression_reason=expression_reason,
+                                  occluded=occluded)
+    if pose is None:
+        return FaceResult(index, t, success, confidence, points, reason=reason, **common)
+    return FaceResult(index, t, success, confidence, points, rotation=pose.rotation,
+                      translation_mm=pose.translation_mm, roll_deg=float(pose.roll_deg),
+                      pitch_deg=float(pose.pitch_deg), yaw_deg=float(pose.yaw_deg),
+                      pose_reliable=bool(pose.reliable and success),
+                      reason=reason or pose.reason, **common)
+
+
 def result_of(index: int, t: float, fit: LandmarkFit, points: np.ndarray,
               pose: HeadPose | None, why: str, expression: Recognition | None) -> FaceResult:
-    """A :class:`FaceResult` of its parts."""
-    reason = fit.reason or why
+    """The library's :class:`FaceResult` of a frame's parts (:func:`joined_result`)."""
     occluded = fit.occluded if isinstance(fit, AAMFit) and not fit.failed else None
-    scores: dict[str, float] = {}
-    label, expression_reason = None, ""
+    parts = None
+    if pose is not None:
+        est = pose.estimate
+        roll, pitch, yaw = est.rpy
+        parts = PoseParts(est.R, est.T, roll, pitch, yaw, est.reliable, pose.reason)
+    label, names, scores, expression_reason = None, (), None, ""
     if expression is not None:
-        label, expression_reason = expression.label, expression.reason
-        if expression.scores is not None:
-            scores = dict(zip(expression.class_names, map(float, expression.scores), strict=True))
-    if pose is None:
-        return FaceResult(index, t, fit.ok, fit.confidence, points, fit.similarity,
-                          reason=reason, expression=label, expression_scores=scores,
-                          expression_reason=expression_reason, occluded=occluded)
-    est = pose.estimate
-    roll, pitch, yaw = est.rpy
-    return FaceResult(index, t, fit.ok, fit.confidence, points, fit.similarity, est.R, est.T,
-                      float(roll), float(pitch), float(yaw), bool(est.reliable and fit.ok),
-                      label, scores, reason or pose.reason, expression_reason, occluded)
+        label, names, scores = expression.label, expression.class_names, expression.scores
+        expression_reason = expression.reason
+    return joined_result(index, t, points, fit.ok, fit.confidence, fit.similarity,
+                         fit.reason or why, occluded, parts, label, names, scores,
+                         expression_reason)

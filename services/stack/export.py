@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aamcore.model.similarity import Similarity
-from aamcore.tracker import NO_FACE, FaceResult
+from aamcore.tracker import FaceResult, PoseParts, joined_result
 from proto import Expression, Fit, HeadPose, Message
 
 
@@ -28,33 +28,27 @@ class Exported:
 
 
 def face_result(fit: Fit, pose: HeadPose | None, expression: Expression | None) -> FaceResult:
-    """The result of one frame from its messages, timed on the video's clock."""
+    """The result of one frame from its messages, timed on the video's clock
+    (:func:`aamcore.tracker.joined_result`, as the library's)."""
     h = fit.header
-    t = h.media_time_ns / 1e9
     points = np.asarray(fit.landmarks, np.float64)
-    labelled = expression is not None and bool(expression.label)
-    why = "" if expression is None or labelled else expression.reason
-    if len(points) == 0:
-        return FaceResult(h.frame_index, t, False, 0.0, np.zeros((0, 2)),
-                          reason=fit.failure_reason or NO_FACE, expression_reason=why)
-    a, b, tx, ty = (float(v) for v in fit.similarity)
-    scores = ({} if expression is None or not labelled
-              else dict(zip(expression.class_names, map(float, expression.scores), strict=True)))
     found = fit.appearance
     occluded = (np.asarray(found.occluded, bool) if found is not None
                 and len(found.occluded) == len(points) else None)
-    common = dict(similarity=Similarity(a, b, tx, ty), reason=fit.failure_reason,
-                  expression=expression.label if labelled else None, expression_scores=scores,
-                  expression_reason=why, occluded=occluded)
-    confidence = float(fit.confidence)
-    if pose is None:
-        return FaceResult(h.frame_index, t, not fit.failed, confidence, points, **common)
-    return FaceResult(h.frame_index, t, not fit.failed, confidence, points,
-                      rotation=np.asarray(pose.rotation), translation_mm=np.asarray(
-                          pose.translation_mm), roll_deg=pose.roll_deg,
-                      pitch_deg=pose.pitch_deg, yaw_deg=pose.yaw_deg,
-                      pose_reliable=pose.reliable,
-                      **{**common, "reason": fit.failure_reason or pose.reason})
+    a, b, tx, ty = (float(v) for v in fit.similarity) if len(points) else (1.0, 0.0, 0.0, 0.0)
+    parts = None if pose is None else PoseParts(
+        np.asarray(pose.rotation), np.asarray(pose.translation_mm), pose.roll_deg,
+        pose.pitch_deg, pose.yaw_deg, pose.reliable, pose.reason)
+    label, names, scores, why = None, (), None, ""
+    if expression is not None:
+        if expression.label:
+            label, names = expression.label, tuple(expression.class_names)
+            scores = np.asarray(expression.scores, np.float64)
+        else:
+            why = expression.reason
+    return joined_result(h.frame_index, h.media_time_ns / 1e9, points, not fit.failed,
+                         float(fit.confidence), Similarity(a, b, tx, ty), fit.failure_reason,
+                         occluded, parts, label, names, scores, why)
 
 
 def _by_frame(messages: Iterable[Message], kind: str) -> dict[tuple[str, int], Message]:
