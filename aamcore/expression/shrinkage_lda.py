@@ -3,7 +3,7 @@
 ``LinearDiscriminantAnalysis(solver="lsqr", shrinkage="auto")`` builds a
 (d, d) within-class covariance (each class's Ledoit-Wolf estimate on
 standardised features, weighted by the class priors) and solves it with
-``lstsq``: O(d^3), about 1.5 s for the 2000 features of a face vector, and
+``lstsq``: O(d^3), 2.7 s for 213 faces of 2000 features (0.17 s here), and
 the expression classifier is fitted a dozen times to calibrate it on
 held-out posers. With n faces and n < d that covariance is a diagonal plus a
 rank-n term,

@@ -11,7 +11,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
 from aamcore.config import REPO_ROOT
@@ -22,6 +21,7 @@ from services.bus.connection import BusOptions
 from services.bus.options import options_argv
 from services.bus.session import Service
 from services.fitter.detector_client import ServiceDetector
+from tests.services.fitter.test_service import frames
 
 OPTIONS = ["--scale-factor", "1.2", "--min-neighbors", "7", "--min-size", "60",
            "--max-side", "320"]
@@ -29,18 +29,10 @@ SETTINGS = {"scale_factor": 1.2, "min_neighbors": 7, "min_size": [60, 60], "max_
             "equalize": False}
 
 
-def first_frame(video: Path) -> np.ndarray:
-    cap = cv2.VideoCapture(str(video))
-    ok, image = cap.read()
-    cap.release()
-    assert ok
-    return image
-
-
 def test_the_local_fall_back_searches_with_the_detector_services_settings(
     bus_pair: tuple[BusOptions, BusOptions], single_face: Path
 ) -> None:
-    image = first_frame(single_face)
+    image = frames(single_face, (0,))[0]
     env = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO_ROOT)}
     with Service("fitter", bus_pair[0], handle_signals=False) as svc:
         proc = subprocess.Popen([sys.executable, "-m", "services", "service", "detector",
@@ -64,7 +56,7 @@ def test_the_local_fall_back_searches_with_the_detector_services_settings(
 def test_a_reply_with_bad_settings_keeps_its_boxes_and_the_settings_had(
     bus_pair: tuple[BusOptions, BusOptions], single_face: Path
 ) -> None:
-    image = first_frame(single_face)
+    image = frames(single_face, (0,))[0]
     attachments = [json.dumps(SETTINGS).encode(), b"{not json", json.dumps(
         SETTINGS | {"scale_factor": float("nan")}).encode(), b"[" * 5000,
         json.dumps(SETTINGS | {"extra": 1}).encode()]
