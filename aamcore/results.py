@@ -1,13 +1,16 @@
-"""Per-frame results as CSV or JSON Lines, one row per frame, as OpenFace users load them.
+"""Per-frame results as CSV or JSON Lines, one row per face per frame, as OpenFace users
+load them (its multi-face CSV has the same shape).
 
-Columns of the CSV (one row per frame, written and flushed as it comes, so a
-run cut short keeps every row before the cut)::
+Columns of the CSV (one row per face per frame, one row for a frame without a face,
+written and flushed as it comes, so a run cut short keeps every row before the cut)::
 
-    frame, timestamp, success, confidence,
+    frame, face_id, timestamp, success, confidence,
     pose_Tx, pose_Ty, pose_Tz, pose_roll, pose_pitch, pose_yaw, pose_reliable,
     x_0 ... x_{N-1}, y_0 ... y_{N-1}, occluded_0 ... occluded_{N-1},
     expression, score_<class> ..., expression_reason, reason
 
+``face_id`` is the face's id (:attr:`aamcore.tracker.FaceResult.face_id`), empty for a
+frame without a tracked face and in a stack recording's export (contract 4 has no ids).
 ``occluded_i`` is 1 where landmark ``i``'s part of the face is covered (from the
 AAM's texture residual), 0 where it is not, empty where it was not judged;
 ``score_<class>`` are probabilities summing to 1; ``expression_reason`` says why a
@@ -36,8 +39,8 @@ FORMATS = ("csv", "jsonl")
 
 def columns(n_points: int, class_names: Sequence[str]) -> list[str]:
     """The CSV header for ``n_points`` landmarks and these expression classes."""
-    return (["frame", "timestamp", "success", "confidence", "pose_Tx", "pose_Ty", "pose_Tz",
-             "pose_roll", "pose_pitch", "pose_yaw", "pose_reliable"]
+    return (["frame", "face_id", "timestamp", "success", "confidence", "pose_Tx", "pose_Ty",
+             "pose_Tz", "pose_roll", "pose_pitch", "pose_yaw", "pose_reliable"]
             + [f"x_{i}" for i in range(n_points)] + [f"y_{i}" for i in range(n_points)]
             + [f"occluded_{i}" for i in range(n_points)]
             + ["expression"] + [f"score_{name}" for name in class_names]
@@ -63,7 +66,8 @@ def row(result: FaceResult, n_points: int, class_names: Sequence[str]) -> list[s
     occluded = ([str(int(v)) for v in flags] if flags is not None and len(flags) == n_points
                 else [""] * n_points)
     scores = [_cell(result.expression_scores.get(name, math.nan)) for name in class_names]
-    return ([str(result.frame_index), f"{result.timestamp:.6f}", str(int(result.success)),
+    face = str(result.face_id) if result.face_id >= 0 else ""
+    return ([str(result.frame_index), face, f"{result.timestamp:.6f}", str(int(result.success)),
              f"{result.confidence:.4f}", *pose, _cell(result.roll_deg),
              _cell(result.pitch_deg), _cell(result.yaw_deg),
              str(int(result.pose_reliable)) if t is not None else "", *xs, *ys, *occluded,

@@ -31,9 +31,10 @@ from aamcore.expression.recogniser import ExpressionRecogniser, Recognition
 from aamcore.fitting.config import FITTER, FitterConfig
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
+from aamcore.fitting.multi import MultiTracker, NewFaces, TrackedFace
 from aamcore.fitting.result import AAMFit, LandmarkFit, appearance_of
 from aamcore.fitting.search import SearchSchedule
-from aamcore.fitting.tracker import Refit, Tracker
+from aamcore.fitting.tracker import Refit
 from aamcore.io.video import FALLBACK_FPS, frame_rate
 from aamcore.model.similarity import Similarity
 from aamcore.pose import IntrinsicsError, PoseError
@@ -87,6 +88,9 @@ class FaceResult:
         Per landmark, whether its part of the face is covered (from the AAM's
         texture residual); None where it was not judged (no face, a failed fit,
         a model without an occlusion part).
+    face_id : int
+        Which face (:class:`~aamcore.fitting.multi.TrackedFace`): the same while it is
+        tracked; -1 for a frame without a tracked face (no face, or a failed fit).
     """
 
     frame_index: int
@@ -106,6 +110,7 @@ class FaceResult:
     reason: str = ""
     expression_reason: str = ""
     occluded: np.ndarray | None = None
+    face_id: int = -1
 
     def to_dict(self) -> dict[str, Any]:
         """The result as plain JSON-ready data (lists, floats, None for what is missing)."""
@@ -115,7 +120,8 @@ class FaceResult:
 
         sim = self.similarity
         return {
-            "frame": self.frame_index, "timestamp": self.timestamp, "success": self.success,
+            "frame": self.frame_index, "face_id": self.face_id, "timestamp": self.timestamp,
+            "success": self.success,
             "confidence": float(self.confidence), "landmarks": self.landmarks.tolist(),
             "similarity": None if sim is None else [sim.a, sim.b, sim.tx, sim.ty],
             "rotation": None if self.rotation is None else self.rotation.tolist(),
@@ -219,7 +225,8 @@ class FaceTracker:
                  smoothing: bool = False, pose_estimator: str | None = None,
                  expression_smooth: int = 1, expression_hold: int = 0,
                  fitter: FitterConfig | None = None,
-                 search: SearchSchedule | None = None, refit: Refit | None = None) -> None:
+                 search: SearchSchedule | None = None, refit: Refit | None = None,
+                 max_faces: int = 1, new_faces: NewFaces | None = None) -> None:
         chosen = profile_named(profile) if profile else None
         config = fitter or (chosen.fitter if chosen else FITTER)
         given = {"algorithm": algorithm, "failure_test": failure_test}
@@ -233,60 +240,122 @@ class FaceTracker:
             classifier = chosen.classifier_path(path, config.algorithm)
         self.expression = _recogniser(classifier or None, self.model, path,  # type: ignore
                                       config.algorithm, expression_smooth, expression_hold)
-        self.tracker = Tracker(Fitter.from_config(self.model, config), HaarFaceDetector(),
-                               search, refit)
+        """The first face's expression recogniser (None without a classifier); each face
+        has its own, made like it."""
+        self.tracker = MultiTracker(Fitter.from_config(self.model, config), HaarFaceDetector(),
+                                    max_faces, search, refit, new_faces)
         calibration = camera if isinstance(camera, str | Path) else None
         fov = float(camera) if isinstance(camera, int | float) else defaults.FOV_DEG
-        cameras = Cameras(fov, str(calibration) if calibration else None)
-        method = pose_estimator or (chosen.pose_estimator if chosen else defaults.POSE_ESTIMATOR)
-        self.pose = HeadPoseTracker(HeadPoseEstimator(cameras, method=method), smoothing)
-        self.landmarks = LandmarkSmoother() if smoothing else None
+        self._cameras = Cameras(fov, str(calibration) if calibration else None)
+        self._method = pose_estimator or (chosen.pose_estimator if chosen
+                                          else defaults.POSE_ESTIMATOR)
+        self._smoothing = smoothing
+        self._expression_args = (expression_smooth, expression_hold)
+        self._faces: dict[int, _FaceState] = {}
+        self._state(0)  # a camera file that cannot be read is refused here, not at a face
         self.frames = 0
 
+    @property
+    def pose_method(self) -> str:
+        """The head-pose estimator's method (:data:`aamcore.defaults.POSE_ESTIMATORS`)."""
+        return self._method
+
+    @property
+    def class_names(self) -> tuple[str, ...]:
+        """The expression classes (none without a classifier)."""
+        return () if self.expression is None else tuple(self.expression.classifier.class_names)
+
+    def _state(self, face_id: int) -> _FaceState:
+        """The smoothing, pose and expression state of a face (with one face, the one state
+        whatever its id: a face found again keeps its expression reference, as before)."""
+        key = face_id if self.tracker.max_faces > 1 else 0
+        state = self._faces.get(key)
+        if state is None:
+            recogniser = self.expression
+            if recogniser is not None and any(other.expression is recogniser
+                                              for other in self._faces.values()):
+                smooth, hold = self._expression_args
+                recogniser = ExpressionRecogniser(recogniser.classifier, smooth, hold=hold)
+            pose = HeadPoseTracker(HeadPoseEstimator(self._cameras, method=self._method),
+                                   self._smoothing)
+            state = _FaceState(pose, LandmarkSmoother() if self._smoothing else None, recogniser)
+            self._faces[key] = state
+        return state
+
     def reset(self) -> None:
-        """Forget the face: the next frame starts from a detection."""
+        """Forget the faces: the next frame starts from a detection."""
         self.tracker.reset()
-        self.pose.reset()
-        for part in (self.landmarks, self.expression):
-            if part is not None:
-                part.reset()
+        for state in self._faces.values():
+            state.reset()
+        if self.tracker.max_faces > 1:
+            self._faces.clear()
 
     def process(self, frame: np.ndarray, timestamp: float | None = None) -> FaceResult:
-        """The result for one frame (BGR or grey uint8), at ``timestamp`` seconds."""
+        """The result for one frame (BGR or grey uint8), at ``timestamp`` seconds: of its
+        first face by id (:meth:`process_faces` gives every face's)."""
+        return self.process_faces(frame, timestamp)[0]
+
+    def process_faces(self, frame: np.ndarray, timestamp: float | None = None
+                      ) -> list[FaceResult]:
+        """One result per face tracked in a frame, by ``face_id``; one result without a
+        face (``face_id`` -1, a failed fit's landmarks if there was one) when none is."""
         index = self.frames
         self.frames += 1
         t = index / FALLBACK_FPS if timestamp is None else float(timestamp)
-        fit = self.tracker.track(frame)
-        smoothed = fit if self.landmarks is None else self.landmarks.smoothed(fit, t)
-        if fit is None or smoothed is None:
-            self.pose.reset()
-            found = self.recognise(index, frame, None, None)
-            return joined_result(index, t, np.zeros((0, 2)), False, 0.0, None, NO_FACE, None,
-                                 None, None, (), None, found.reason if found else "")
-        points = smoothed.points
+        tracked, failed = self.tracker.track(frame)
+        results = [self._result(index, t, frame, face.fit, self._state(face.face_id),
+                                face.face_id) for face in tracked]
+        self._forget_gone(tracked)
+        if results:
+            return results
+        found = None
+        if self.tracker.max_faces == 1:
+            state = self._state(-1)
+            if failed is not None:
+                return [self._result(index, t, frame, failed, state, -1)]
+            found = state.lost(index, frame)
+        return [joined_result(index, t, np.zeros((0, 2)), False, 0.0, None, NO_FACE, None,
+                              None, None, (), None, found.reason if found else "")]
+
+    def _forget_gone(self, tracked: list[TrackedFace]) -> None:
+        """Drop the state of faces no longer tracked (several faces only: their ids are not
+        given again once the regain window has passed)."""
+        if self.tracker.max_faces == 1:
+            return
+        here = {face.face_id for face in tracked}
+        regainable = {g.face_id for g in self.tracker.ids.lost}
+        for key in [k for k in self._faces if k not in here]:
+            if key in regainable:
+                self._faces[key].lost()
+            else:
+                self._faces.pop(key).reset()
+
+    def _result(self, index: int, t: float, frame: np.ndarray, fit: LandmarkFit,
+                state: _FaceState, face_id: int) -> FaceResult:
+        points = fit.points if state.landmarks is None else state.landmarks.smoothed(
+            fit, t).points  # type: ignore[union-attr]  (None only for no fit)
         try:
-            pose, why = self.pose.update(points, frame.shape[1], frame.shape[0], t,
-                                         fit.failed), ""
+            pose, why = state.pose.update(points, frame.shape[1], frame.shape[0], t,
+                                          fit.failed), ""
         except (PoseError, IntrinsicsError) as exc:
             pose, why = None, f"no pose: {exc}"
-        expression = self.recognise(index, frame, fit, points)
-        return result_of(index, t, fit, points, pose, why, expression)
-
-    def recognise(self, index: int, frame: np.ndarray, fit: LandmarkFit | None,
-                  points: np.ndarray | None) -> Recognition | None:
-        """The expression of frame ``index`` from its fit (None: no face) and the landmarks
-        the result carries (smoothed or not), as the expression service computes it from the
-        frame and the ``Fit`` message; None without a classifier."""
-        if self.expression is None:
-            return None
-        if fit is None:
-            return self.expression.recognise(index, frame, None, None, True, NO_FACE)
-        occluded = fit.occluded if isinstance(fit, AAMFit) else None
-        return self.expression.recognise(index, frame, points, appearance_of(fit), fit.failed,
-                                         fit.reason, self.model.aam.scheme.name, occluded)
+        expression = state.recognise(index, frame, fit, points, self.model.aam.scheme.name)
+        return replace(result_of(index, t, fit, points, pose, why, expression), face_id=face_id)
 
     def process_video(self, path: str | Path) -> Iterator[FaceResult]:
-        """The result of every frame of a video file, timestamps from its frame rate.
+        """The result of every frame of a video file (its first face's), timestamps from its
+        frame rate.
+
+        Raises
+        ------
+        OSError
+            When the file cannot be opened (raised at the first ``next``).
+        """
+        for faces in self.process_video_faces(path):
+            yield faces[0]
+
+    def process_video_faces(self, path: str | Path) -> Iterator[list[FaceResult]]:
+        """Every frame's results (:meth:`process_faces`), timestamps from its frame rate.
 
         Raises
         ------
@@ -306,9 +375,46 @@ class FaceTracker:
                 ok, frame = capture.read()
                 if not ok:
                     return
-                yield self.process(frame, self.frames / fps)
+                yield self.process_faces(frame, self.frames / fps)
         finally:
             capture.release()
+
+
+@dataclass(eq=False)
+class _FaceState:
+    """What the tracker keeps of one face between frames."""
+
+    pose: HeadPoseTracker
+    landmarks: LandmarkSmoother | None
+    expression: ExpressionRecogniser | None
+
+    def reset(self) -> None:
+        self.pose.reset()
+        for part in (self.landmarks, self.expression):
+            if part is not None:
+                part.reset()
+
+    def lost(self, index: int = -1, frame: np.ndarray | None = None) -> Recognition | None:
+        """The face is not in this frame: its pose restarts; with ``frame``, the expression
+        recogniser hears of it (as the expression service hears of a frame without a
+        face)."""
+        self.pose.reset()
+        if self.landmarks is not None:
+            self.landmarks.reset()
+        if self.expression is None or frame is None:
+            return None
+        return self.expression.recognise(index, frame, None, None, True, NO_FACE)
+
+    def recognise(self, index: int, frame: np.ndarray, fit: LandmarkFit,
+                  points: np.ndarray, scheme: str) -> Recognition | None:
+        """The expression of frame ``index`` from its fit and the landmarks the result
+        carries (smoothed or not), as the expression service computes it from the frame
+        and the ``Fit`` message; None without a classifier."""
+        if self.expression is None:
+            return None
+        occluded = fit.occluded if isinstance(fit, AAMFit) else None
+        return self.expression.recognise(index, frame, points, appearance_of(fit), fit.failed,
+                                         fit.reason, scheme, occluded)
 
 
 @dataclass(frozen=True)

@@ -87,9 +87,8 @@ def tracker_iterations(model: Path, profile: str, video: Path) -> list[int]:
     tracker = FaceTracker(model, profile=profile, classifier=False)
     out = []
     for frame in video_frames(video):
-        fit = tracker.tracker.track(frame)
-        if isinstance(fit, AAMFit) and fit.ok:
-            out.append(fit.iterations)
+        faces, _ = tracker.tracker.track(frame)
+        out += [face.fit.iterations for face in faces if isinstance(face.fit, AAMFit)]
     return out
 
 

@@ -153,11 +153,9 @@ class Tracker:
             self.size = image.shape[:2]
             self.reset()
         if self.last is not None:
-            result = self._track(image, self.last)
-            if not self.refit.never and self.fitter.quality is not None:
-                result = self._refitted(image, result, self.last)
+            result = self.follow(image)
             if result.ok:
-                return self._keep(result)
+                return result
         upright, turned = self.search.passes(self.misses)
         angles = [0.0] * upright + [self._turn()] * turned
         self.detections += bool(angles)
@@ -170,6 +168,23 @@ class Tracker:
         self.last = self.before = None
         self.misses += 1
         return found
+
+    def follow(self, image: np.ndarray) -> FitResult:
+        """The fit of ``image`` from the last good fit (tracking and its refits), kept as the
+        last one when it is good; no search. Needs a last fit (:meth:`adopt`)."""
+        if self.last is None:
+            raise ValueError("no face to follow: adopt a fit first")
+        result = self._track(image, self.last)
+        if not self.refit.never and self.fitter.quality is not None:
+            result = self._refitted(image, result, self.last)
+        return self._keep(result) if result.ok else result
+
+    def adopt(self, result: FitResult, size: tuple[int, ...]) -> None:
+        """Follow the face of a good fit ``result`` of a frame of ``size`` (``shape[:2]``) from
+        the next frame on (a face found by another search than this tracker's)."""
+        self.reset()
+        self.size = size
+        self._keep(result)
 
     def _track(self, image: np.ndarray, last: FitResult) -> FitResult:
         """The fit from the last frame's, moved on as the face moved between the two frames

@@ -4,7 +4,8 @@
   row per frame of a recording made with ``aamtrack run --record``;
   ``--rrd OUT.rrd`` replays it into a Rerun recording to view.
 - ``aamtrack track VIDEO --csv OUT.csv``: the same rows straight from a
-  video through the Python API (:class:`aamcore.tracker.FaceTracker`), no bus.
+  video through the Python API (:class:`aamcore.tracker.FaceTracker`), no bus;
+  with ``--max-faces N``, one row per face per frame.
 
 Rows are written as they come: whatever was exported before a damaged record
 or a video that ends mid-frame is kept, and the command says what happened.
@@ -15,6 +16,9 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+
+MAX_FACES = 32
+"""The most faces ``aamtrack track --max-faces`` takes."""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -37,6 +41,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--calibration", help="camera calibration file")
     p.add_argument("--smooth", action=argparse.BooleanOptionalAction, default=True,
                    help="smooth landmarks and pose over time (default on)")
+    p.add_argument("--max-faces", type=int, default=1, metavar="N",
+                   help="track up to N faces, one row per face per frame (default 1)")
     p.set_defaults(func=cmd_track)
 
 
@@ -125,20 +131,24 @@ def cmd_track(args: argparse.Namespace) -> int:
         return _fail("track", problem, 2)
     if args.fov is not None and not 1.0 <= args.fov <= 179.0:
         return _fail("track", f"--fov {args.fov:g}: must be a number from 1 to 179", 2)
+    if not 1 <= args.max_faces <= MAX_FACES:
+        return _fail("track", f"--max-faces {args.max_faces}: must be 1 to {MAX_FACES}", 2)
     from aamcore.model.file import ModelFileError
     from aamcore.tracker import FaceTracker
 
     camera = args.calibration or args.fov
     try:
-        tracker = FaceTracker(args.model, args.classifier, camera, smoothing=args.smooth)
+        tracker = FaceTracker(args.model, args.classifier, camera, smoothing=args.smooth,
+                              max_faces=args.max_faces)
     except (ModelFileError, OSError, ValueError) as exc:
         return _fail("track", str(exc), 2)
-    names = tracker.expression.classifier.class_names if tracker.expression else ()
+    names = tracker.class_names
     writers = _writers(args, tracker.model.aam.scheme.n_points, names)
     try:
-        for result in tracker.process_video(args.video):
+        for faces in tracker.process_video_faces(args.video):
             for writer in writers:
-                writer.write(result)
+                for result in faces:
+                    writer.write(result)
     except OSError as exc:
         return _fail("track", str(exc), 2)
     finally:

@@ -108,8 +108,8 @@ def test_the_pose_estimator_can_be_chosen(
     from aamcore.pose.errors import PoseError
 
     posit = FaceTracker(model_path, pose_estimator="posit")
-    assert posit.pose.estimator.method == "posit"
-    assert FaceTracker(model_path).pose.estimator.method == "contour"
+    assert posit.pose_method == "posit"
+    assert FaceTracker(model_path).pose_method == "contour"
     both = 0
     for frame, contour in zip(video_frames(single_face)[:5], results[:5], strict=False):
         r = posit.process(frame)
@@ -137,3 +137,36 @@ def test_bad_frames_mid_stream_give_clear_results(model_path: Path, single_face:
     back = [tracker.process(f) for f in frames[7:12]]
     assert any(r.success for r in back)
     assert back[-1].success and back[-1].expression is None
+
+
+def test_each_face_of_a_frame_gets_its_own_result_pose_and_expression(
+    model_path: Path, classifier_path: Path, single_face: Path, results: list[FaceResult],
+) -> None:
+    """Two real faces side by side: a result per face with its id, landmarks in its half,
+    its own pose and expression; one face the single tracker's results exactly."""
+    from aamcore.io.video import video_frames
+
+    frames = video_frames(single_face)
+    width = frames[0].shape[1]
+    tracker = FaceTracker(model_path, classifier_path, max_faces=2)
+    per_frame = [tracker.process_faces(np.hstack([frames[k], frames[k + 36]]), k / 30)
+                 for k in range(24)]
+    two = [faces for faces in per_frame if len(faces) == 2 and all(r.success for r in faces)]
+    assert len(two) >= GOOD_SHARE * len(per_frame)
+    for faces in two:
+        assert [r.face_id for r in faces] == sorted({r.face_id for r in faces})
+        assert all(r.face_id >= 0 and r.rotation is not None for r in faces)
+        assert all(r.expression is not None or r.expression_reason for r in faces)
+        sides = sorted(r.landmarks[:, 0].mean() > width for r in faces)
+        assert sides == [False, True]
+    assert len({tuple(r.face_id for r in faces) for faces in two}) == 1
+    blank = tracker.process_faces(np.zeros((360, 1280, 3), np.uint8))
+    assert len(blank) == 1 and blank[0].face_id == -1 and not blank[0].success
+    assert blank[0].reason == "no face" and json.loads(json.dumps(blank[0].to_dict()))[
+        "face_id"] == -1
+    one = FaceTracker(model_path, classifier_path)
+    again = [one.process(f) for f in frames[:12]]
+    for a, b in zip(again, results[:12], strict=True):
+        np.testing.assert_array_equal(a.landmarks, b.landmarks)
+        assert a.expression == b.expression and a.face_id == b.face_id
+    assert {r.face_id for r in again if r.success} == {0}

@@ -112,6 +112,35 @@ def test_track_writes_the_rows_of_a_video_and_says_when_it_is_cut_short(
     assert done.returncode == 2 and "no such file" in done.stderr
 
 
+def test_track_writes_a_row_per_face_with_its_id(
+    single_face: Path, model_path: Path, tmp_path: Path,
+    run_cli: Callable[..., subprocess.CompletedProcess[str]],
+) -> None:
+    frames = []
+    capture = cv2.VideoCapture(str(single_face))
+    while (frame := capture.read())[0] and len(frames) < 60:
+        frames.append(frame[1])
+    two = tmp_path / "two.avi"
+    writer = cv2.VideoWriter(str(two), cv2.VideoWriter_fourcc(*"MJPG"), 30, (1280, 360))
+    for k in range(20):
+        writer.write(np.hstack([frames[k], frames[k + 36]]))
+    writer.release()
+    out = tmp_path / "two.csv"
+    done = run_cli("track", str(two), "--csv", str(out), "--model", str(model_path),
+                   "--max-faces", "2")
+    assert done.returncode == 0, done.stderr
+    rows = list(csv.DictReader(out.open()))
+    by_frame: dict[str, list[dict[str, str]]] = {}
+    for r in rows:
+        by_frame.setdefault(r["frame"], []).append(r)
+    assert sorted(map(int, by_frame)) == list(range(20))
+    pairs = [fs for fs in by_frame.values() if len(fs) == 2 and all(r["face_id"] for r in fs)]
+    assert len(pairs) >= GOOD_SHARE * 20
+    assert len({tuple(r["face_id"] for r in fs) for fs in pairs}) == 1
+    done = run_cli("track", str(two), "--csv", str(out), "--max-faces", "0", timeout=60)
+    assert done.returncode == 2 and "--max-faces 0: must be 1 to" in done.stderr
+
+
 def test_outputs_and_numbers_are_checked_before_any_work(
     single_face: Path, model_path: Path, tmp_path: Path,
     run_cli: Callable[..., subprocess.CompletedProcess[str]],
