@@ -80,7 +80,7 @@ LAYERS = (
     ("ar", "synth"),
     ("evaluation",),
     ("profiles",),
-    ("tracker", "results"),
+    ("tracker", "results", "face_result"),
 )
 """The stages of aamcore from the bottom up, as ARCHITECTURE.md draws them: a module may
 import its own stage and those below, never one above."""

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aamcore.face_result import FaceResult, PoseParts, joined_result
 from aamcore.model.similarity import Similarity
-from aamcore.tracker import FaceResult, PoseParts, joined_result
 from proto import Expression, Fit, HeadPose, Message
 
 

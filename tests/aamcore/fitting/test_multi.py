@@ -89,7 +89,7 @@ def test_a_newcomer_is_picked_up_at_the_search_rate(fitter: Fitter, faces) -> No
     assert all(set(s) == {"left"} for s in first[1:])
     later = [ids_by_side(tracker, pair(faces[k], faces[k + 30], faces[0])) for k in range(8, 30)]
     picked = next(i for i, s in enumerate(later) if "right" in s)
-    assert picked <= policy.every
+    assert picked <= 2 * policy.every  # upright and turned searches take turns
     assert all(s.get("left") == first[-1]["left"] for s in later)
     assert later[picked]["right"] != first[-1]["left"]
 
