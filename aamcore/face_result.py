@@ -63,7 +63,8 @@ class FaceResult:
         a model without an occlusion part).
     face_id : int
         Which face (:class:`~aamcore.fitting.multi.TrackedFace`): the same while it is
-        tracked; -1 for a frame without a tracked face (no face, or a failed fit).
+        tracked (always 0 with one face at a time); -1 for a frame without a tracked face
+        (no face, or a failed fit).
     """
 
     frame_index: int

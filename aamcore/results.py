@@ -10,7 +10,7 @@ written and flushed as it comes, so a run cut short keeps every row before the c
     expression, score_<class> ..., expression_reason, reason
 
 ``face_id`` is the face's id (:attr:`aamcore.tracker.FaceResult.face_id`), empty for a
-frame without a tracked face and in a stack recording's export (contract 4 has no ids).
+frame without a tracked face.
 ``occluded_i`` is 1 where landmark ``i``'s part of the face is covered (from the
 AAM's texture residual), 0 where it is not, empty where it was not judged;
 ``score_<class>`` are probabilities summing to 1; ``expression_reason`` says why a

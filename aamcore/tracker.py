@@ -158,7 +158,6 @@ class FaceTracker:
         self._method = pose_estimator or (chosen.pose_estimator if chosen
                                           else defaults.POSE_ESTIMATOR)
         self._smoothing = smoothing
-        self._expression_args = (expression_smooth, expression_hold)
         self._faces: dict[int, _FaceState] = {}
         self._state(0)  # a camera file that cannot be read is refused here, not at a face
         self.frames = 0
@@ -174,16 +173,16 @@ class FaceTracker:
         return () if self.expression is None else tuple(self.expression.classifier.class_names)
 
     def _state(self, face_id: int) -> _FaceState:
-        """The smoothing, pose and expression state of a face (with one face, the one state
-        whatever its id: a face found again keeps its expression reference, as before)."""
-        key = face_id if self.tracker.max_faces > 1 else 0
+        """The smoothing, pose and expression state of a face; face 0's also hears of the
+        frames without a tracked face (a failed fit, ``face_id`` -1), as the services'
+        first face does."""
+        key = max(face_id, 0)
         state = self._faces.get(key)
         if state is None:
             recogniser = self.expression
             if recogniser is not None and any(other.expression is recogniser
                                               for other in self._faces.values()):
-                smooth, hold = self._expression_args
-                recogniser = ExpressionRecogniser(recogniser.classifier, smooth, hold=hold)
+                recogniser = recogniser.fresh()
             pose = HeadPoseTracker(HeadPoseEstimator(self._cameras, method=self._method),
                                    self._smoothing)
             state = _FaceState(pose, LandmarkSmoother() if self._smoothing else None, recogniser)

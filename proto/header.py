@@ -16,12 +16,13 @@ from proto.fields import Int, Str, check_keys, is_int, type_name
 from proto.keys import check_name
 from proto.limits import ProtoError
 
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 """Version of the message contract; any change to a field or a rule bumps it.
 Version 2: ``run_id`` in the header; ``fit.similarity`` (was ``pose``) and the
 fit's frame size; ``status.lost`` and ``status.ignored``. Version 3:
 ``media_time_ns`` in the header. Version 4: ``status.failed``, the header's ``auth``, the
-fit's appearance as one map (nil without one), ``warp_path`` ``none``."""
+fit's appearance as one map (nil without one), ``warp_path`` ``none``. Version 5: every face
+in the frame: ``face_id`` in ``fit``, ``pose`` and ``expression``, ``fit.faces``."""
 
 
 AUTH_HEX = 32

@@ -12,12 +12,12 @@ and re-exported here.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import ClassVar
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
 
 import numpy as np
 
-from proto.fields import Bool, Float, Str, StrList
+from proto.fields import Bool, Float, Int, Str, StrList
 from proto.images import Frame, Overlay
 from proto.keys import check_name, status_key
 from proto.limits import ProtoError
@@ -26,6 +26,17 @@ from proto.record import Group, GroupSpec
 
 WARP_PATHS = ("gpu", "cpu", "none")
 """Where a fit's texture warps ran; ``none`` when nothing was warped."""
+MAX_FACES = 64
+"""The most faces a frame's fits may count (``fit.faces``)."""
+FACE_ID = Int(-1)
+"""A face id: >= 0 for a tracked face, -1 for a frame's answer without one."""
+
+
+def face_field(default: int) -> Any:
+    """A body field with a Python default (the wire always carries it)."""
+    return field(default=default, metadata={"spec": FACE_ID})
+
+
 STATES = ("starting", "running", "waiting", "degraded", "stopping", "stopped", "failed")
 """Service states of ``Status.state``."""
 
@@ -123,6 +134,12 @@ class Fit(Message):
         The AAM's appearance of the face (a map of the fields of ``FitAppearance``), or
         nil (None) when the fit has none: no face, a failed regressor fit, or a
         regressor's fit with the appearance turned off.
+    face_id : int
+        Which face: an id >= 0 that stays the same while the face is tracked (and when
+        it is found again soon at the same place); -1 for a failed fit or no face.
+    faces : int
+        How many ``fit`` messages the frame has (one per face tracked; one, with
+        ``face_id`` -1, when none is), from 1 to 64.
     """
 
     KIND: ClassVar[str] = "fit"
@@ -136,8 +153,12 @@ class Fit(Message):
     confidence: float = spec(Float(0.0, 1.0))
     warp_path: str = spec(Str(choices=WARP_PATHS))
     appearance: FitAppearance | None = spec(GroupSpec(FitAppearance))
+    face_id: int = face_field(0)
+    faces: int = field(default=1, metadata={"spec": Int(1, MAX_FACES)})
 
     def _check(self) -> None:
+        if self.face_id < 0 and not self.failed:
+            raise ProtoError("fit.face_id: a good fit has a face id >= 0")
         if len(self.similarity) not in (0, 4):
             raise ProtoError(f"fit.similarity: {len(self.similarity)} values, expected 4 (or 0)")
         if self.failed != bool(self.failure_reason):
@@ -190,6 +211,8 @@ class HeadPose(Message):
     angle_sd_deg : float
         Predicted standard deviation of the least certain of roll, pitch and yaw, degrees,
         >= 0; NaN when the estimator does not predict it.
+    face_id : int
+        The ``face_id`` of the fit it comes from.
     """
 
     KIND: ClassVar[str] = "pose"
@@ -206,6 +229,7 @@ class HeadPose(Message):
     reliable: bool = spec(Bool())
     reason: str = spec(Str())
     angle_sd_deg: float = spec(Float(0.0, math.inf, allow_nan=True))
+    face_id: int = face_field(0)
 
     def _check(self) -> None:
         k = self.intrinsics
@@ -238,6 +262,9 @@ class Expression(Message):
         Whether the label was smoothed or held over recent frames.
     reason : str
         Why there is no label, ``"<key>: <details>"``; empty exactly when there is one.
+    face_id : int
+        The ``face_id`` of the fit it comes from (each face has its own reference and
+        smoothing).
     """
 
     KIND: ClassVar[str] = "expression"
@@ -246,6 +273,7 @@ class Expression(Message):
     scores: np.ndarray = small("f4", None)
     smoothed: bool = spec(Bool())
     reason: str = spec(Str())
+    face_id: int = face_field(0)
 
     def _check(self) -> None:
         if bool(self.label) == bool(self.reason):

@@ -81,6 +81,13 @@ RULES: dict[str, list[tuple[str, dict[str, Any] | None]]] = {
             },
         ),
         ("appearance.occluded has one flag (0 or 1) per landmark, or none", None),
+        (
+            "face_id is -1 only for a failed fit (a good fit has an id >= 0)",
+            {
+                "if": {"properties": {"failed": {"const": False}}},
+                "then": {"properties": {"face_id": {"minimum": 0}}},
+            },
+        ),
     ],
     "pose": [
         (

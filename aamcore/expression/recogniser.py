@@ -129,10 +129,16 @@ class ExpressionRecogniser:
     def __init__(self, classifier: ExpressionClassifier, smooth: int = 1,
                  lost_frames_reset: int = LOST_FRAMES_RESET, hold: int = 0) -> None:
         self.classifier = classifier
+        self._settings = (smooth, lost_frames_reset, hold)
         self.pipeline = ExpressionPipeline(classifier, lost_frames_reset)
         self.smoother = Smoother(smooth)
         self.hold = LabelHold(hold)
         self._last_index = -1
+
+    def fresh(self) -> ExpressionRecogniser:
+        """A recogniser of another face: the same classifier and settings, nothing seen."""
+        smooth, lost, hold = self._settings
+        return ExpressionRecogniser(self.classifier, smooth, lost, hold)
 
     def reset(self) -> None:
         """Forget the stream: its reference, the frames averaged and the label held."""

@@ -46,15 +46,20 @@ class NewFaces:
     overlap : float
         Two tracked faces whose landmark boxes overlap more than this (intersection over
         the smaller box) are one face: the one that moved less keeps it.
+    hidden_frames : int
+        A face lost where it overlapped another (gone behind it) is looked for around the
+        place it was lost on every frame, and keeps its id, for this many frames.
     """
 
     every: int = 5
     regain_frames: int = 15
     regain_distance: float = 0.5
     overlap: float = 0.5
+    hidden_frames: int = 90
 
     def __post_init__(self) -> None:
-        if self.every < 1 or self.regain_frames < 0 or self.regain_distance < 0:
+        if (self.every < 1 or self.regain_frames < 0 or self.regain_distance < 0
+                or self.hidden_frames < 0):
             raise ValueError(f"not a new-face policy: {self}")
         if not 0.0 < self.overlap <= 1.0:
             raise ValueError(f"overlap must be in (0, 1], got {self.overlap}")
@@ -68,7 +73,8 @@ class TrackedFace:
     ----------
     face_id : int
         The face's id: the same while it is tracked (and when it is found again within
-        :attr:`NewFaces.regain_frames` at the same place), never reused otherwise.
+        :attr:`NewFaces.regain_frames` at the same place), never reused otherwise; with
+        ``max_faces=1``, always 0 (one face at a time).
     fit : FitResult
     """
 
@@ -89,6 +95,7 @@ class _Lost:
     centre: np.ndarray
     width: float
     frame: int
+    hidden: bool
 
 
 @dataclass(eq=False)
@@ -100,12 +107,19 @@ class _Ids:
     next_id: int = 0
     lost: list[_Lost] = field(default_factory=list)
 
-    def lose(self, face_id: int, fit: FitResult, frame: int) -> None:
+    def lose(self, face_id: int, fit: FitResult, frame: int, hidden: bool = False) -> None:
         self.lost.append(_Lost(face_id, fit.points.mean(axis=0), float(np.ptp(fit.points[:, 0])),
-                               frame))
+                               frame, hidden))
+
+    def alive(self, frame: int) -> list[_Lost]:
+        """The lost faces whose ids can still be regained on ``frame``."""
+        policy = self.policy
+        self.lost = [g for g in self.lost if frame - g.frame <= (
+            policy.hidden_frames if g.hidden else policy.regain_frames)]
+        return self.lost
 
     def assign(self, fit: FitResult, frame: int) -> int:
-        self.lost = [g for g in self.lost if frame - g.frame <= self.policy.regain_frames]
+        self.alive(frame)
         centre = fit.points.mean(axis=0)
         near = [g for g in self.lost
                 if np.linalg.norm(centre - g.centre) <= self.policy.regain_distance * g.width]
@@ -191,7 +205,6 @@ class MultiTracker:
         self.misses = 0
         self.searches = 0
         """Haar passes run by the search for new faces (``max_faces`` > 1)."""
-        self._current: int | None = None
         self._due = 0
         self._roll = 0.0
         self._side = 1.0
@@ -204,7 +217,6 @@ class MultiTracker:
     def reset(self) -> None:
         """Forget every face: the next frame starts from a search, and ids are not regained."""
         self.single.reset()
-        self._current = None
         self.faces = []
         self.ids.forget()
         self.misses = 0
@@ -228,18 +240,21 @@ class MultiTracker:
             self.size = image.shape[:2]
             self.reset()
         kept: list[tuple[_Face, FitResult]] = []
-        lost = False
+        gone: list[tuple[int, FitResult]] = []
         for face in self.faces:
             before = face.tracker.last
             result = face.tracker.follow(image)
             if result.ok:
                 face.moved = _step(before, result) if before is not None else 0.0
                 kept.append((face, result))
-            else:
-                lost = True
-                if before is not None:
-                    self.ids.lose(face.face_id, before, self.frame)
+            elif before is not None:
+                gone.append((face.face_id, before))
         kept = self._distinct(kept)
+        for face_id, before in gone:
+            box = landmark_box(before.points)
+            hidden = any(overlap(box, landmark_box(fit.points)) > 0 for _, fit in kept)
+            self.ids.lose(face_id, before, self.frame, hidden)
+        lost = bool(gone)
         found = self._search(image, [fit for _, fit in kept], lost)
         for fit in found:
             face = _Face(self.ids.assign(fit, self.frame),
@@ -254,17 +269,11 @@ class MultiTracker:
         return [TrackedFace(face.face_id, fit) for face, fit in kept], None
 
     def _track_one(self, image: np.ndarray) -> tuple[list[TrackedFace], FitResult | None]:
-        tracker = self.single
-        had = tracker.last
-        fit = tracker.track(image)
+        """The single tracker's fit; its one face at a time is always face 0."""
+        fit = self.single.track(image)
         if fit is None or not fit.ok:
-            if had is not None and self._current is not None:
-                self.ids.lose(self._current, had, self.frame)
-            self._current = None
             return [], fit
-        if self._current is None:
-            self._current = self.ids.assign(fit, self.frame)
-        return [TrackedFace(self._current, fit)], None
+        return [TrackedFace(0, fit)], None
 
     def _distinct(self, kept: list[tuple[_Face, FitResult]]) -> list[tuple[_Face, FitResult]]:
         """One fit per face: of two that overlap, the one that moved less stays (the other
@@ -276,20 +285,21 @@ class MultiTracker:
                    for _, other in out):
                 out.append((face, fit))
             else:
-                self.ids.lose(face.face_id, fit, self.frame)
+                self.ids.lose(face.face_id, fit, self.frame, hidden=True)
         return out
 
     def _search(self, image: np.ndarray, tracked: list[FitResult], lost: bool
                 ) -> list[FitResult]:
         """Good fits of faces not in ``tracked`` (at most ``max_faces`` in all), on the frames
-        the policy searches."""
+        the policy searches: around the faces lost lately, then over the whole frame."""
         room = self.max_faces - len(tracked)
         if room <= 0:
             return []
         if tracked:
-            due = lost or self.frame % self.new_faces.every == 0
             angles = []
-            if due:
+            if lost:  # found again on the frame it is lost on, as the single tracker does
+                angles = [0.0]
+            elif self.frame % self.new_faces.every == 0:
                 # upright and turned in turn: a newcomer rolled past Haar's reach is found
                 # within two searches, at one pass's cost
                 self._due += 1
@@ -297,41 +307,81 @@ class MultiTracker:
         else:
             upright, turned = self.search.passes(self.misses)
             angles = [0.0] * upright + [self._turn()] * turned
-        if not angles:
-            if not tracked:
-                self.misses += 1
-            return []
         grey = to_grey_uint8(image)
         found: list[FitResult] = []
-        for angle in angles:
-            self.searches += 1
-            for fit in self._fits(image, blanked(grey, tracked + found), angle):
-                box = landmark_box(fit.points)
-                if all(overlap(box, landmark_box(other.points)) <= self.new_faces.overlap
-                       for other in tracked + found):
-                    found.append(fit)
+        if tracked and not lost:
+            for gone in self.ids.alive(self.frame):
+                if (self.frame - gone.frame) % 2 == 0:  # every second frame
+                    continue
+                self.searches += 1
+                found += self._new(self._fits_near(image, grey, gone, tracked + found),
+                                   tracked + found, room - len(found))
                 if len(found) >= room:
                     return found
+        for angle in angles:
+            self.searches += 1
+            taken = tracked + found
+            found += self._new(self._fits(image, blanked(grey, taken), angle, taken), taken,
+                               room - len(found))
             if found:
                 break
         if not tracked and not found:
             self.misses += 1
         return found
 
-    def _fits(self, image: np.ndarray, grey: np.ndarray, angle: float) -> list[FitResult]:
+    def _new(self, fits: list[FitResult], taken: list[FitResult], room: int) -> list[FitResult]:
+        """The first ``room`` of ``fits`` that are none of ``taken`` nor of each other."""
+        out: list[FitResult] = []
+        for fit in fits:
+            box = landmark_box(fit.points)
+            if len(out) < room and all(
+                    overlap(box, landmark_box(other.points)) <= self.new_faces.overlap
+                    for other in taken + out):
+                out.append(fit)
+        return out
+
+    def _boxes(self, grey: np.ndarray, taken: list[FitResult],
+               offset: tuple[float, float] = (0.0, 0.0)) -> list[np.ndarray]:
+        """Haar's boxes in ``grey`` (moved by ``offset``) that are not over a face in
+        ``taken`` (so that no fit is spent on it)."""
+        out = []
+        for x, y, w, h in self.detector.detect(grey):
+            box = np.array([x + offset[0], y + offset[1], w, h], np.float64)
+            corners = np.r_[box[:2], box[:2] + box[2:]]
+            if all(overlap(corners, landmark_box(fit.points)) <= self.new_faces.overlap
+                   for fit in taken):
+                out.append(box)
+        return out
+
+    def _fits(self, image: np.ndarray, grey: np.ndarray, angle: float,
+              taken: list[FitResult]) -> list[FitResult]:
         """The good fits of the faces Haar finds in ``grey`` turned by ``-angle``, largest
         first."""
         if angle == 0.0:
-            boxes = self.detector.detect(grey)
-            fits = [self.fitter.fit_box(image, box) for box in boxes]
+            fits = [self.fitter.fit_box(image, box) for box in self._boxes(grey, taken)]
         else:
-            boxes = self.detector.detect(rotated_view(grey, angle)[0])
-            if len(boxes) == 0:
-                return []
             view, to_view = rotated_view(image, angle)
+            turned = [mapped(fit, to_view) for fit in taken]
+            boxes = self._boxes(rotated_view(grey, angle)[0], turned)
+            if not boxes:
+                return []
             back = to_view.inverse()
             fits = [mapped(self.fitter.fit_box(view, box), back) for box in boxes]
         return [fit for fit in fits if fit.ok]
+
+    def _fits_near(self, image: np.ndarray, grey: np.ndarray, gone: _Lost,
+                   taken: list[FitResult]) -> list[FitResult]:
+        """The good fits of the faces Haar finds around where ``gone`` was lost (a window of
+        three of its widths), with the faces of ``taken`` blanked out."""
+        h, w = grey.shape[:2]
+        half = 1.5 * gone.width
+        x0, x1 = int(max(0, gone.centre[0] - half)), int(min(w, gone.centre[0] + half))
+        y0, y1 = int(max(0, gone.centre[1] - 1.3 * half)), int(min(h, gone.centre[1] + half))
+        if x1 - x0 < 24 or y1 - y0 < 24:
+            return []
+        window = blanked(grey, taken)[y0:y1, x0:x1]
+        boxes = self._boxes(np.ascontiguousarray(window), taken, (x0, y0))
+        return [fit for fit in (self.fitter.fit_box(image, box) for box in boxes) if fit.ok]
 
     def _turn(self) -> float:
         """The angle to turn the frame by in a search besides upright (as the single

@@ -3,7 +3,9 @@
 ``aamtrack service ar [--jpeg Q] [--all-poses]``
 
 For each reliable ``HeadPose`` the service takes the frame it belongs to
-(the latest few frames are kept), renders the glasses with
+(the latest few frames are kept; with several faces, the frame as drawn for its
+faces so far, so that each overlay of a frame has the glasses of every face
+drawn before it and the last has them all), renders the glasses with
 :class:`~aamcore.ar.renderer.GlassesRenderer` at the pose and intrinsics of
 the message, with the head hiding what lies behind it, and publishes the
 result as an ``Overlay`` (raw, or JPEG with ``--jpeg``). The OpenGL (EGL)
@@ -72,26 +74,48 @@ def overlay_message(svc: Service, pose: HeadPose, image: np.ndarray, jpeg: int) 
     return Overlay.from_jpeg(header, data.tobytes(), image.shape[1], image.shape[0])
 
 
-def draw(svc: Service, compositor: Compositor, pose: HeadPose, frame: Frame, jpeg: int
-         ) -> Overlay:
-    """The overlay of ``frame`` at ``pose``.
+class Drawn:
+    """The latest frame drawn on, so that the poses of its other faces draw on it too."""
+
+    def __init__(self) -> None:
+        self.key: tuple[str, int] | None = None
+        self.image: np.ndarray | None = None
+
+    def base(self, pose: HeadPose, frame: Frame) -> np.ndarray:
+        """What to draw ``pose`` on: the frame as drawn so far, or its pixels."""
+        key = (pose.header.run_id, pose.header.frame_index)
+        if key == self.key and self.image is not None:
+            return self.image
+        return bgr_image(frame)
+
+    def keep(self, pose: HeadPose, image: np.ndarray) -> None:
+        self.key, self.image = (pose.header.run_id, pose.header.frame_index), image
+
+
+def draw(svc: Service, compositor: Compositor, pose: HeadPose, frame: Frame, jpeg: int,
+         drawn: Drawn | None = None) -> Overlay:
+    """The overlay of ``frame`` at ``pose`` (over the frame's other faces in ``drawn``).
 
     Raises
     ------
     ProtoError, ValueError
         For a pose made for another image size, or a frame that does not decode.
     """
-    image = bgr_image(frame)
+    image = bgr_image(frame) if drawn is None else drawn.base(pose, frame)
     if (pose.image_width, pose.image_height) != (image.shape[1], image.shape[0]):
         raise ProtoError(f"pose for a {pose.image_width} x {pose.image_height} image, "
                          f"frame is {image.shape[1]} x {image.shape[0]}")
-    return overlay_message(svc, pose, compositor.render(image, pose), jpeg)
+    rendered = compositor.render(image, pose)
+    if drawn is not None:
+        drawn.keep(pose, rendered)
+    return overlay_message(svc, pose, rendered, jpeg)
 
 
 def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
     """Render overlays until stopped."""
     frames = svc.recent("frame", FRAMES_KEPT)
     unreliable = without_frame = 0
+    drawn = Drawn()
     poses = svc.messages("pose", capacity=opts.capacity)
     svc.ready(f"renderer {compositor.ctx.info.get('GL_RENDERER', '?')}")
     for got in poses:
@@ -101,12 +125,12 @@ def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
             unreliable += 1
         # The frame and its pose come from different publishers: the pose may come first.
         elif (frame := frames.take(pose.header.run_id, pose.header.frame_index,
-                                   FRAME_WAIT_S)) is None:
+                                   FRAME_WAIT_S, keep=True)) is None:
             without_frame += 1  # its frame is gone: never received, or pushed out
         else:
             with svc.answering(f"pose {pose.header.frame_index}"):
                 try:
-                    svc.publish(draw(svc, compositor, pose, frame.message, opts.jpeg))
+                    svc.publish(draw(svc, compositor, pose, frame.message, opts.jpeg, drawn))
                 except (ProtoError, ValueError) as exc:
                     svc.reject("pose", f"no overlay: {exc}")
         svc.set_state("running", f"{svc.stats.frames_out} overlays drawn; not drawn: "

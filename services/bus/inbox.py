@@ -252,8 +252,10 @@ class Recent(_Holder):
             self._items.popitem(last=False)
             self._screen.stats.dropped += 1
 
-    def take(self, run_id: str, frame_index: int, timeout: float = 0.0) -> Received | None:
-        """The message of that frame, or None if never or no longer kept.
+    def take(self, run_id: str, frame_index: int, timeout: float = 0.0, keep: bool = False
+             ) -> Received | None:
+        """The message of that frame, or None if never or no longer kept (``keep``: it stays
+        kept, for the results of the frame's other faces).
 
         With a ``timeout`` (seconds), a message not yet kept is waited for
         that long (a result can arrive before the frame it belongs to: the
@@ -269,4 +271,4 @@ class Recent(_Holder):
                 if left <= 0:
                     break
                 self._cond.wait(left)
-            return self._items.pop(key, None)
+            return self._items.get(key) if keep else self._items.pop(key, None)

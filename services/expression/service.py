@@ -45,6 +45,8 @@ from services.bus.session import Service
 from services.expression.options import ExpressionOptions
 
 NAME = "expression"
+FORGET_FRAMES = 90
+"""Frames after which a face not seen is forgotten (as long as a face id can be regained)."""
 FRAMES_KEPT = 64
 """Frames kept for the fits still to come: more than the fit backlog, so that a fit waiting
 in it still finds its frame, up to :data:`MAX_FRAMES_KEPT`."""
@@ -106,14 +108,14 @@ def expression_message(svc: Service, fit: Fit, found: Recognition) -> Expression
     if found.label is None or found.scores is None:
         return unlabelled(svc, fit, found.reason or "not classified", found.class_names)
     return Expression(svc.header_for(fit), found.label, found.class_names,
-                      found.scores.astype(np.float32), found.smoothed, "")
+                      found.scores.astype(np.float32), found.smoothed, "", fit.face_id)
 
 
 def unlabelled(svc: Service, fit: Fit, reason: str, class_names: tuple[str, ...] = ()
                ) -> Expression:
     """The answer to a fit without expression: no label, the reason."""
     return Expression(svc.header_for(fit), "", class_names, np.zeros(0, np.float32), False,
-                      reason[:MAX_REASON])
+                      reason[:MAX_REASON], fit.face_id)
 
 
 def recognise(recogniser: ExpressionRecogniser, fit: Fit, image: np.ndarray) -> Recognition:
@@ -142,7 +144,13 @@ def grey_frame(got: Received) -> Received:
 
 
 class ExpressionStream:
-    """The recogniser of the fits of one run, with the frames they were made on."""
+    """The recognisers of the fits of one run, one per face (its reference, smoothing and
+    label hold), with the frames they were made on.
+
+    The first recogniser is face 0's and hears of the frames without a face (``face_id``
+    -1), as the library's one face does; a face not seen for :data:`FORGET_FRAMES` frames
+    is forgotten.
+    """
 
     def __init__(self, svc: Service, recogniser: ExpressionRecogniser, frames: Recent) -> None:
         self.svc = svc
@@ -150,6 +158,20 @@ class ExpressionStream:
         self.frames = frames
         self.unclassified = Unclassified()
         self._run: str | None = None
+        self._faces: dict[int, tuple[ExpressionRecogniser, int]] = {}
+
+    def recogniser_of(self, fit: Fit) -> ExpressionRecogniser:
+        """The recogniser of the face of ``fit``."""
+        key, index = max(fit.face_id, 0), fit.header.frame_index
+        self._faces = {k: v for k, v in self._faces.items()
+                       if 0 <= index - v[1] <= FORGET_FRAMES or k == 0}
+        known = self._faces.get(key)
+        if known is None:
+            first = self.recogniser
+            made = first if key == 0 else first.fresh()
+            known = (made, index)
+        self._faces[key] = (known[0], index)
+        return known[0]
 
     def handle(self, fit: Fit) -> Expression:
         """The expression of a fit: a label, or none and why (counted; rejected when the fit
@@ -158,8 +180,10 @@ class ExpressionStream:
         if h.run_id != self._run:
             self._run = h.run_id
             self.recogniser.reset()
+            self._faces.clear()
+        recogniser = self.recogniser_of(fit)
         wait = FRAME_WAIT_S if len(fit.landmarks) else 0.0
-        frame = self.frames.take(h.run_id, h.frame_index, timeout=wait)
+        frame = self.frames.take(h.run_id, h.frame_index, timeout=wait, keep=fit.faces > 1)
         if frame is None and len(fit.landmarks):
             self.svc.stats.dropped += 1  # its frame is gone: never received or pushed out
             reason = "no frame: it was not received in time"
@@ -167,7 +191,7 @@ class ExpressionStream:
             return unlabelled(self.svc, fit, reason, self.recogniser.classifier.class_names)
         try:
             image = image_of(frame.message) if frame is not None else np.zeros((1, 1), np.uint8)
-            found = recognise(self.recogniser, fit, image)
+            found = recognise(recogniser, fit, image)
         except AAMMismatchError as exc:
             self.svc.reject("fit", f"not classified: {exc}")
             self.svc.set_state("degraded", str(exc))

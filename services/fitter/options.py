@@ -12,6 +12,8 @@ from services.bus.options import Options, in_range, option
 
 WARPS = ("auto", "gpu", "cpu")
 UPDATE_METHODS = ("jacobian", "regression")
+MAX_FACES = 64
+"""As :data:`proto.messages.MAX_FACES` (a frame's fits count at most so many)."""
 """As :data:`aamcore.fitting.training.update.METHODS` (not imported: options load light)."""
 
 
@@ -53,6 +55,8 @@ class FitterOptions(Options):
     capacity: int = option(2, "latest frames kept while busy (older ones are dropped)",
                            check=in_range(1, 1024))
     smooth: bool = option(True, "smooth the landmarks over time (One Euro filter)")
+    max_faces: int = option(1, "track up to N faces per frame, a fit each with its face_id "
+                            "(1: the largest face)", metavar="N", check=in_range(1, MAX_FACES))
 
     def config(self) -> FitterConfig:
         """The library's configuration of the fitting these options ask for."""

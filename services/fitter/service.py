@@ -36,8 +36,8 @@ import numpy as np
 
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
+from aamcore.fitting.multi import MultiTracker
 from aamcore.fitting.result import AAMFit, LandmarkFit
-from aamcore.fitting.tracker import Tracker
 from aamcore.fitting.training.prepare import default_model_path
 from aamcore.fitting.warps import FitterWarp
 from aamcore.model.file import ModelFileError
@@ -68,13 +68,15 @@ def model_path(opts: FitterOptions) -> Path:
 
 
 def fit_message(header: Header, result: LandmarkFit | None, scheme: str, warp_path: str,
-                size: tuple[int, int], frame: ReferenceFrame | None = None) -> Fit:
+                size: tuple[int, int], frame: ReferenceFrame | None = None,
+                face_id: int = 0, faces: int = 1) -> Fit:
     """The ``Fit`` message of a tracking result (``None``: no face found) on a frame of ``size``,
-    its warps on ``warp_path``; ``frame`` lays an appearance's residual out as an image."""
+    its warps on ``warp_path``; ``frame`` lays an appearance's residual out as an image.
+    ``face_id`` is the face's (-1 for a failed fit), ``faces`` how many fits the frame has."""
     width, height = size
     if result is None:
         return Fit(header, scheme, EMPTY_POINTS, EMPTY, width, height, True, NO_FACE, 0.0,
-                   warp_path, None)
+                   warp_path, None, -1, 1)
     sim = result.similarity
     similarity = np.array([sim.a, sim.b, sim.tx, sim.ty])
     finite = bool(np.all(np.isfinite(result.points)) and np.all(np.isfinite(similarity)))
@@ -88,7 +90,7 @@ def fit_message(header: Header, result: LandmarkFit | None, scheme: str, warp_pa
         similarity.astype(np.float32) if finite else EMPTY,
         width, height, failed, reason if failed else "", float(confidence),
         warp_path if appearance is not None or warp_path != "none" else "none",
-        appearance,
+        appearance, -1 if failed else face_id, faces,
     )
 
 
@@ -108,46 +110,67 @@ def appearance_of(result: LandmarkFit, frame: ReferenceFrame | None) -> FitAppea
 
 
 class FrameTracker:
-    """Turns frame messages into fits, one per frame (landmarks smoothed if asked, as
-    :meth:`aamcore.tracker.FaceTracker.smooth_landmarks` does)."""
+    """Turns frame messages into fits, one per face tracked or one without a face (landmarks
+    smoothed per face if asked, as :class:`aamcore.tracker.FaceTracker` smooths them)."""
 
     def __init__(self, svc: Service, fitter: Fitter, warp: FitterWarp,
-                 detector: ServiceDetector, smooth: bool) -> None:
+                 detector: ServiceDetector, smooth: bool, max_faces: int = 1) -> None:
         self.svc = svc
         self.scheme = fitter.aam.scheme.name
         self.frame = fitter.aam.frame
-        self.tracker = Tracker(fitter, detector)
+        self.tracker = MultiTracker(fitter, detector, max_faces)
         self.detector = detector
         self.warp = warp
-        self.smoother = LandmarkSmoother() if smooth else None
+        self.smooth = smooth
+        self.smoothers: dict[int, LandmarkSmoother] = {}
+        """Per face (with one face, the one smoother whatever its id, as the library's)."""
         self._run: str | None = None
         self._size: tuple[int, int] = (0, 0)
         self._last_index = -1
 
-    def handle(self, got: Received) -> Fit | None:
-        """The fit for one received frame, or None when the frame is rejected."""
+    def handle(self, got: Received) -> list[Fit]:
+        """The fits of one received frame (none when the frame is rejected)."""
         frame = got.message
         assert isinstance(frame, Frame)
         if not self._accept(frame):
-            return None
+            return []
         try:
             image = image_of(frame)
         except ProtoError as exc:
             self.svc.reject("frame", exc.reason)
-            return None
+            return []
         self.detector.set_frame(image, got.payload)
         self.warp.take_path()
-        result = self.tracker.track(image)
+        tracked, failed = self.tracker.track(image)
         warp_path = self.warp.take_path()
-        if self.smoother is not None:
-            result = self.smoother.smoothed(result, frame.header.media_time_ns / 1e9)
-        return fit_message(self.svc.header_for(frame), result, self.scheme, warp_path,
-                           self._size, self.frame)
+        header, t = self.svc.header_for(frame), frame.header.media_time_ns / 1e9
+        if not tracked:
+            for smoother in self.smoothers.values():
+                smoother.reset()
+            result = failed if failed is None or not self.smooth else self._smoother(-1).smoothed(
+                failed, t)
+            return [fit_message(header, result, self.scheme, warp_path, self._size, self.frame)]
+        fits = []
+        for face in tracked:
+            result = face.fit if not self.smooth else self._smoother(face.face_id).smoothed(
+                face.fit, t)
+            fits.append(fit_message(header, result, self.scheme, warp_path, self._size,
+                                    self.frame, face.face_id, len(tracked)))
+        here = {face.face_id for face in tracked}
+        if self.tracker.max_faces > 1:
+            for gone in [k for k in self.smoothers if k not in here]:
+                del self.smoothers[gone]
+        return fits
+
+    def _smoother(self, face_id: int) -> LandmarkSmoother:
+        key = face_id if self.tracker.max_faces > 1 else 0
+        if key not in self.smoothers:
+            self.smoothers[key] = LandmarkSmoother()
+        return self.smoothers[key]
 
     def reset(self) -> None:
         self.tracker.reset()
-        if self.smoother is not None:
-            self.smoother.reset()
+        self.smoothers.clear()
 
     def _accept(self, frame: Frame) -> bool:
         """A new run starts afresh with its own frame size; within a run, sizes must agree."""
@@ -187,12 +210,11 @@ def warm_up(fitter: Fitter, warp: FitterWarp) -> None:
 def serve(svc: Service, fitter: Fitter, warp: FitterWarp, opts: FitterOptions) -> None:
     """Fit frames until stopped."""
     detector = ServiceDetector(svc, opts.detect_timeout, opts.local_for)
-    tracker = FrameTracker(svc, fitter, warp, detector, opts.smooth)
+    tracker = FrameTracker(svc, fitter, warp, detector, opts.smooth, opts.max_faces)
     frames = svc.messages("frame", capacity=opts.capacity, count_lost=True)
     svc.ready(f"{fitter.name}, warp {warp.path}")
     for got in frames:
-        fit = tracker.handle(got)
-        if fit is not None:
+        for fit in tracker.handle(got):
             svc.publish(fit)
         svc.set_state("running", f"{fitter.name}, warp {warp.path}; {warp.summary()}; "
                       f"{detector.queries} detector queries, {detector.local_detections} "

@@ -15,7 +15,7 @@ estimator refuses (PoseError: counted as dropped); the status line counts each r
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from aamcore.pose import IntrinsicsError, PoseError
 from aamcore.pose.estimator import Cameras, HeadPoseEstimator, HeadPoseTracker
@@ -27,6 +27,8 @@ from services.bus.session import Service
 from services.pose.options import PoseOptions
 
 NAME = "pose"
+FORGET_FRAMES = 90
+"""Frames after which a face not seen is forgotten (as long as a face id can be regained)."""
 
 
 def pose_message(svc: Service, fit: Fit, poses: HeadPoseTracker) -> HeadPose:
@@ -45,8 +47,41 @@ def pose_message(svc: Service, fit: Fit, poses: HeadPoseTracker) -> HeadPose:
     return HeadPose(
         svc.header_for(fit), est.R, est.T, float(roll), float(pitch), float(yaw), cam.K,
         fit.image_width, fit.image_height, poses.estimator.cameras.source,
-        int(est.iterations), not reason, reason, pose.angle_sd_deg,
+        int(est.iterations), not reason, reason, pose.angle_sd_deg, fit.face_id,
     )
+
+
+class FacePoses:
+    """A pose tracker per face id (its smoothing, and with ``contour+calib`` its own head
+    model learned online), made as the first; a face not seen for :data:`FORGET_FRAMES`
+    frames is forgotten."""
+
+    def __init__(self, make: Callable[[], HeadPoseTracker]) -> None:
+        self.make = make
+        self.first = make()
+        self.faces: dict[int, tuple[HeadPoseTracker, int]] = {}
+
+    def of(self, fit: Fit) -> HeadPoseTracker:
+        """The tracker of the face of ``fit``; a failed fit (no face tracked) restarts every
+        face's, and takes the first's (as the library's one face)."""
+        if fit.face_id < 0:
+            self.reset()
+            return self.first
+        index = fit.header.frame_index
+        self.faces = {k: v for k, v in self.faces.items() if index - v[1] <= FORGET_FRAMES
+                      and v[1] <= index}
+        known = self.faces.get(fit.face_id)
+        if known is None:
+            mine = not any(p is self.first for p, _ in self.faces.values())
+            known = (self.first if mine else self.make(), index)
+            known[0].reset()
+        self.faces[fit.face_id] = (known[0], index)
+        return known[0]
+
+    def reset(self) -> None:
+        """A frame without a face: every face's pose starts afresh."""
+        for poses, _ in self.faces.values():
+            poses.reset()
 
 
 class PoseCounts:
@@ -71,15 +106,15 @@ class PoseCounts:
         return "; ".join(parts)
 
 
-def answer(svc: Service, fit: Fit, poses: HeadPoseTracker, counts: PoseCounts) -> None:
+def answer(svc: Service, fit: Fit, faces: FacePoses, counts: PoseCounts) -> None:
     """Publish the pose of one fit (none for a fit without landmarks, or one the estimator
     refuses: counted by reason)."""
     if len(fit.landmarks) == 0:
-        poses.reset()
+        faces.reset()
         counts.no_face += 1
         return
     try:
-        pose = pose_message(svc, fit, poses)
+        pose = pose_message(svc, fit, faces.of(fit))
     except (PoseError, IntrinsicsError, ProtoError) as exc:
         counts.no_pose[reason_key(str(exc))] += 1
         svc.stats.dropped += 1  # no pose can be had from these landmarks: none is owed
@@ -89,18 +124,18 @@ def answer(svc: Service, fit: Fit, poses: HeadPoseTracker, counts: PoseCounts) -
         counts.unreliable[reason_key(pose.reason)] += 1
 
 
-def serve(svc: Service, poses: HeadPoseTracker, capacity: int) -> None:
+def serve(svc: Service, faces: FacePoses, capacity: int) -> None:
     """Estimate poses until stopped."""
     counts = PoseCounts()
     fits = svc.messages("fit", capacity=capacity)
-    estimator = poses.estimator
+    estimator = faces.first.estimator
     svc.ready(f"{estimator.method} on head model {estimator.model.name}, camera "
               f"{estimator.cameras.source}")
     for got in fits:
         fit = got.message
         assert isinstance(fit, Fit)
         with svc.answering(f"fit {fit.header.frame_index}"):
-            answer(svc, fit, poses, counts)
+            answer(svc, fit, faces, counts)
         calib = estimator.calibration
         svc.set_state("running", counts.line(None if calib is None else calib.refinements))
 
@@ -111,13 +146,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     log = init_process(NAME, args.verbose)
     opts: PoseOptions = args.options
     try:
-        estimator = HeadPoseEstimator(Cameras(opts.fov, opts.calibration), method=opts.estimator)
-        poses = HeadPoseTracker(estimator, opts.smooth)
+        cameras = Cameras(opts.fov, opts.calibration)
+        faces = FacePoses(lambda: HeadPoseTracker(
+            HeadPoseEstimator(cameras, method=opts.estimator), opts.smooth))
     except (PoseError, IntrinsicsError, OSError) as exc:
         log.error("cannot set up head pose: %s", exc)
         return 1
     with Service(NAME, args.bus) as svc:
-        serve(svc, poses, opts.capacity)
+        serve(svc, faces, opts.capacity)
     return 0
 
 

@@ -48,3 +48,14 @@ def child(parent: str, name: str) -> str:
     characters that mean something in an entity path, such as ``/`` or a space.
     """
     return f"{parent}/{rr.escape_entity_path_part(name)}"
+
+
+def of_face(path: str, face_id: int) -> str:
+    """The entity of ``path`` for face ``face_id``: ``path`` itself for the first face (0,
+    or -1 for a frame without one), ``path_<id>`` beside it for another (a head's whole
+    subtree: ``world/head_<id>/...``)."""
+    if face_id <= 0:
+        return path
+    if path == HEAD or path.startswith(HEAD + "/"):
+        return f"{HEAD}_{face_id}{path[len(HEAD):]}"
+    return f"{path}_{face_id}"

@@ -116,7 +116,9 @@ class FitLogger:
     an image of ``|r|``, to :data:`entities.RESIDUAL`; texture error, iterations,
     the converged and failed flags and the number of occluded landmarks go to
     ``series/fit/*`` (the appearance's only for a fit with one); a failure is
-    also a warning on :data:`entities.EVENTS`.
+    also a warning on :data:`entities.EVENTS`. Each face other than the first has
+    entities of its own beside these (:func:`entities.of_face`); once all the fits of a
+    frame have come, the landmarks of faces not among them are cleared.
     """
 
     def __init__(
@@ -125,20 +127,26 @@ class FitLogger:
         self._rec = rec
         self._classes = classes
         self._series = series
+        self._shown: set[int] = set()
+        self._frame: tuple[str, int] | None = None
+        self._this: set[int] = set()
 
     def log(self, msg: Fit) -> None:
         """Log the landmarks and quality of ``msg``."""
         n = len(msg.landmarks)
+        face = max(msg.face_id, 0)
+        landmarks = ent.of_face(ent.LANDMARKS, face)
         if n == 0:  # no face: clear the previous landmarks
-            self._rec.log(ent.LANDMARKS, rr.Points2D(np.zeros((0, 2), np.float32)))
+            self._rec.log(landmarks, rr.Points2D(np.zeros((0, 2), np.float32)))
         else:
             class_ids = log_landmark_classes(self._rec, self._classes, msg.scheme, n, msg.failed)
             self._rec.log(
-                ent.LANDMARKS,
+                landmarks,
                 rr.Points2D(msg.landmarks, class_ids=class_ids, keypoint_ids=np.arange(n)),
             )
-        self._log_appearance(msg)
-        self._series.scalar(f"{ent.FIT_SERIES}/failed", float(msg.failed))
+        self._log_appearance(msg, face)
+        self._series.scalar(f"{ent.of_face(ent.FIT_SERIES, face)}/failed", float(msg.failed))
+        self._clear_gone(msg, face)
         if msg.failed:
             self._rec.log(
                 ent.EVENTS,
@@ -148,22 +156,38 @@ class FitLogger:
                 ),
             )
 
-    def _log_appearance(self, msg: Fit) -> None:
+    def _clear_gone(self, msg: Fit, face: int) -> None:
+        """Once a frame's fits have all come, clear the faces shown before but not in it."""
+        key = (msg.header.run_id, msg.header.frame_index)
+        if key != self._frame:
+            self._frame, self._this = key, set()
+        self._this.add(face)
+        if len(self._this) < msg.faces:
+            return
+        for gone in self._shown - self._this:
+            for path in (ent.LANDMARKS, ent.OCCLUDED, ent.RESIDUAL):
+                self._rec.log(ent.of_face(path, gone), rr.Clear(recursive=False))
+        self._shown = set(self._this)
+
+    def _log_appearance(self, msg: Fit, face: int) -> None:
         """The occluded landmarks, the residual image and the appearance's series (the
         occluded landmarks and the image cleared for a fit without an appearance)."""
         found = msg.appearance
         flags = found.occluded.astype(bool) if found is not None else np.zeros(0, bool)
         covered = msg.landmarks[flags] if len(flags) == len(msg.landmarks) else msg.landmarks[:0]
-        self._rec.log(ent.OCCLUDED, rr.Points2D(covered, colors=OCCLUDED_COLOUR, radii=4.0))
+        self._rec.log(ent.of_face(ent.OCCLUDED, face),
+                      rr.Points2D(covered, colors=OCCLUDED_COLOUR, radii=4.0))
+        residual = ent.of_face(ent.RESIDUAL, face)
         if found is None:
-            self._rec.log(ent.RESIDUAL, rr.Clear(recursive=False))
+            self._rec.log(residual, rr.Clear(recursive=False))
             return
         image = np.clip(np.abs(found.texture_residual) * RESIDUAL_SCALE, 0, 255)
-        self._rec.log(ent.RESIDUAL, rr.Image(image.astype(np.uint8)))
-        self._series.scalar(f"{ent.FIT_SERIES}/texture_error", found.texture_error)
-        self._series.scalar(f"{ent.FIT_SERIES}/iterations", found.iterations)
-        self._series.scalar(f"{ent.FIT_SERIES}/converged", float(found.converged))
-        self._series.scalar(f"{ent.FIT_SERIES}/occluded", float(flags.sum()))
+        self._rec.log(residual, rr.Image(image.astype(np.uint8)))
+        series = ent.of_face(ent.FIT_SERIES, face)
+        self._series.scalar(f"{series}/texture_error", found.texture_error)
+        self._series.scalar(f"{series}/iterations", found.iterations)
+        self._series.scalar(f"{series}/converged", float(found.converged))
+        self._series.scalar(f"{series}/occluded", float(flags.sum()))
 
 
 class PoseLogger:
@@ -206,31 +230,36 @@ class PoseLogger:
         self._series = series
         self._head_model = head_model
         self._glasses = glasses
-        self._static_logged = False
+        self._static_logged: set[int] = set()
+        """Faces whose head model and glasses are logged (under their head)."""
 
-    def _log_static(self) -> None:
-        self._rec.log(ent.WORLD, rr.ViewCoordinates.RDF, static=True)
-        self._rec.log(ent.HEAD, rr.TransformAxes3D(HEAD_AXIS_MM), static=True)
+    def _log_static(self, face: int) -> None:
+        if not self._static_logged:
+            self._rec.log(ent.WORLD, rr.ViewCoordinates.RDF, static=True)
+        self._rec.log(ent.of_face(ent.HEAD, face), rr.TransformAxes3D(HEAD_AXIS_MM),
+                      static=True)
         model = self._head_model
         if model is not None:
             class_ids = log_landmark_classes(
                 self._rec, self._classes, model.scheme, model.n_landmarks, failed=False
             )
             self._rec.log(
-                ent.HEAD_MODEL,
+                ent.of_face(ent.HEAD_MODEL, face),
                 rr.Points3D(model.points, class_ids=class_ids[model.indices],
                             keypoint_ids=model.indices),
                 static=True,
             )
         if self._glasses is not None:
             for entity, mesh in glasses_meshes(self._glasses).items():
-                self._rec.log(entity, mesh, static=True)
-        self._static_logged = True
+                self._rec.log(ent.of_face(entity, face), mesh, static=True)
+        self._static_logged.add(face)
 
     def log(self, msg: HeadPose) -> None:
-        """Log the camera, the head transform and roll, pitch, yaw of ``msg``."""
-        if not self._static_logged:
-            self._log_static()
+        """Log the camera, the head transform and roll, pitch, yaw of ``msg`` (each face's
+        head and series apart, :func:`entities.of_face`)."""
+        face = max(msg.face_id, 0)
+        if face not in self._static_logged:
+            self._log_static(face)
         depth = float(msg.translation_mm[2])
         self._rec.log(
             ent.CAMERA,
@@ -241,10 +270,12 @@ class PoseLogger:
                 image_plane_distance=depth if depth > 0 else None,
             ),
         )
-        self._rec.log(ent.HEAD, rr.Transform3D(translation=msg.translation_mm, mat3x3=msg.rotation))
+        self._rec.log(ent.of_face(ent.HEAD, face),
+                      rr.Transform3D(translation=msg.translation_mm, mat3x3=msg.rotation))
+        series = ent.of_face(ent.POSE_SERIES, face)
         for name in ("roll", "pitch", "yaw"):
-            self._series.scalar(f"{ent.POSE_SERIES}/{name}_deg", getattr(msg, f"{name}_deg"))
-        self._series.scalar(f"{ent.POSE_SERIES}/reliable", float(msg.reliable))
+            self._series.scalar(f"{series}/{name}_deg", getattr(msg, f"{name}_deg"))
+        self._series.scalar(f"{series}/reliable", float(msg.reliable))
 
 
 class ExpressionLogger:
@@ -253,17 +284,22 @@ class ExpressionLogger:
     def __init__(self, rec: rr.RecordingStream, series: SeriesWriter) -> None:
         self._rec = rec
         self._series = series
-        self._label: str | None = None
+        self._labels: dict[int, str] = {}
 
     def log(self, msg: Expression) -> None:
-        """Log the probabilities of ``msg`` on ``series/expression/<class>``; a frame without a
-        label logs no series point (its reason ends the label shown)."""
+        """Log the probabilities of ``msg`` on ``series/expression/<class>`` (another face's on
+        ``series/expression_<id>/<class>``); a frame without a label logs no series point
+        (its reason ends the label shown)."""
+        face = max(msg.face_id, 0)
+        series = ent.of_face(ent.EXPRESSION_SERIES, face)
         for name, score in zip(msg.class_names if msg.label else (), msg.scores, strict=True):
-            self._series.scalar(ent.child(ent.EXPRESSION_SERIES, name), float(score), name)
-        if msg.label != self._label:
-            self._label = msg.label
+            self._series.scalar(ent.child(series, name), float(score), name)
+        if msg.label != self._labels.get(face):
+            self._labels[face] = msg.label
             text = f"expression {msg.label}" if msg.label else f"no expression: {msg.reason}"
-            self._rec.log(ent.EVENTS, rr.TextLog(f"frame {msg.header.frame_index}: {text}"))
+            who = f"face {face}: " if face > 0 else ""
+            self._rec.log(ent.EVENTS,
+                          rr.TextLog(f"frame {msg.header.frame_index}: {who}{text}"))
 
 
 class LatencyLogger:

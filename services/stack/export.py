@@ -1,7 +1,7 @@
 """A recording's messages as per-frame results: CSV, JSON Lines or a Rerun recording.
 
-:func:`results_of` joins each frame's fit, pose and expression (by run and
-frame index) into an :class:`aamcore.tracker.FaceResult`, the same record the
+:func:`results_of` joins each face's fit, pose and expression (by run, frame
+index and face id) into an :class:`aamcore.tracker.FaceResult`, the same record the
 Python API gives, so that ``aamtrack export RUN.rec --csv`` and ``aamtrack
 track VIDEO --csv`` write the same columns.
 """
@@ -9,7 +9,7 @@ track VIDEO --csv`` write the same columns.
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -46,23 +46,26 @@ def face_result(fit: Fit, pose: HeadPose | None, expression: Expression | None) 
             scores = np.asarray(expression.scores, np.float64)
         else:
             why = expression.reason
-    return joined_result(h.frame_index, h.media_time_ns / 1e9, points, not fit.failed,
-                         float(fit.confidence), Similarity(a, b, tx, ty), fit.failure_reason,
-                         occluded, parts, label, names, scores, why)
+    result = joined_result(h.frame_index, h.media_time_ns / 1e9, points, not fit.failed,
+                           float(fit.confidence), Similarity(a, b, tx, ty), fit.failure_reason,
+                           occluded, parts, label, names, scores, why)
+    return replace(result, face_id=fit.face_id)
 
 
-def _by_frame(messages: Iterable[Message], kind: str) -> dict[tuple[str, int], Message]:
-    return {(m.header.run_id, m.header.frame_index): m for m in messages if kind == m.KIND}
+def _by_face(messages: Iterable[Message], kind: str) -> dict[tuple[str, int, int], Message]:
+    return {(m.header.run_id, m.header.frame_index, m.face_id): m  # type: ignore[attr-defined]
+            for m in messages if kind == m.KIND}
 
 
 def results_of(messages: list[Message]) -> Exported:
-    """Every frame with a fit, in order, with its pose and expression when there are."""
+    """Every fit (one per face of a frame), in order, with its pose and expression when there
+    are."""
     fits = [m for m in messages if isinstance(m, Fit)]
-    poses = _by_frame(messages, "pose")
-    expressions = _by_frame(messages, "expression")
+    poses = _by_face(messages, "pose")
+    expressions = _by_face(messages, "expression")
     results = []
     for fit in fits:
-        key = (fit.header.run_id, fit.header.frame_index)
+        key = (fit.header.run_id, fit.header.frame_index, fit.face_id)
         results.append(face_result(fit, poses.get(key), expressions.get(key)))
     n_points = max((len(f.landmarks) for f in fits), default=0)
     names = next((tuple(m.class_names) for m in expressions.values()

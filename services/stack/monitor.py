@@ -38,7 +38,10 @@ class StackMonitor:
         self.statuses: dict[str, Status] = {}
         self.incarnations: dict[tuple[str, int], Status] = {}
         """The last status of each process a service has had (by its restart count)."""
-        self.with_face: set[int] = set()
+        self.with_face: set[tuple[int, int]] = set()
+        """(frame index, face id) of each fit with landmarks."""
+        self.posed: set[tuple[int, int]] = set()
+        """(frame index, face id) of each pose."""
         """Frames whose fit has landmarks: each is owed a pose."""
         self.foreign: dict[str, set[str]] = {}
         """Run id -> stack services of another run seen on the bus (from their statuses)."""
@@ -87,12 +90,13 @@ class StackMonitor:
             self.indices[msg.KIND].add(msg.header.frame_index)
         if msg.KIND == "fit":
             if len(msg.landmarks):
-                self.with_face.add(msg.header.frame_index)
+                self.with_face.add((msg.header.frame_index, msg.face_id))
             if msg.failed:
                 self.fits_failed += 1
                 self.fits_no_face += len(msg.landmarks) == 0
         elif msg.KIND == "pose":
             h = msg.header
+            self.posed.add((h.frame_index, msg.face_id))
             self.pose_latency_ms.append((h.publish_time_ns - h.capture_time_ns) / 1e6)
         elif msg.KIND == "status":
             self.statuses[msg.service] = msg
@@ -151,7 +155,7 @@ class StackMonitor:
         fits = owed(total, len(self.indices["fit"]), "fitter") if total is not None else 0
         poses = 0
         if "pose" in services:
-            poses = owed(len(self.with_face), len(self.indices["pose"] & self.with_face), "pose")
+            poses = owed(len(self.with_face), len(self.posed & self.with_face), "pose")
         return {"fit": fits, "pose": poses}
 
 

@@ -30,7 +30,8 @@ from services.stack.registry import SERVICES
 RUN_OPTIONS: dict[str, tuple[str, ...] | None] = {
     "source": None,
     "fitter": ("model", "model_limit", "model_images", "model_update", "algorithm",
-               "failure_test", "appearance", "occlusion", "refine", "refine_with", "warp"),
+               "failure_test", "appearance", "occlusion", "refine", "refine_with", "warp",
+               "max_faces"),
     "pose": ("fov", "calibration", "estimator"),
     "expression": ("classifier",),
     "rerun": ("rrd", "serve", "viewer"),

@@ -136,6 +136,10 @@ def test_fit_messages_for_good_failed_lost_and_broken_results() -> None:
     lost = fit_message(header, None, "ibug68", "none", (640, 480), FRAME)
     assert lost.failed and lost.failure_reason == NO_FACE and lost.landmarks.shape == (0, 2)
     assert lost.appearance is None and lost.warp_path == "none"
+    assert (good.face_id, failed.face_id, lost.face_id) == (0, -1, -1)
+    assert (good.faces, failed.faces, lost.faces) == (1, 1, 1)
+    second = fit_message(header, _result(points), "ibug68", "gpu", size, FRAME, 7, 3)
+    assert (second.face_id, second.faces) == (7, 3)
     broken = fit_message(header, _result(np.full((68, 2), np.nan)), "ibug68", "cpu", (640, 480),
                          FRAME)
     assert broken.failed and broken.failure_reason == "non-finite result"

@@ -11,6 +11,7 @@ import numpy as np
 
 from aamcore import FaceTracker
 from aamcore.expression.recogniser import STACK_HOLD
+from services.stack.export import results_of
 from services.stack.launcher import Stack
 from services.stack.options import StackOptions
 from services.stack.recorder import load_messages
@@ -68,3 +69,49 @@ def test_library_and_stack_agree_on_every_frame(
             assert result.expression_reason == expression.reason, k
     labelled = [e for e in expressions.values() if e.label]
     assert len(labelled) >= GOOD_SHARE * sum(not f.failed for f in fits.values())
+
+
+def test_library_and_stack_agree_on_every_face_of_every_frame(
+    single_face: Path, model_path: Path, classifier_path: Path, tmp_path: Path,
+    stack_options: Callable[..., StackOptions],
+) -> None:
+    """Two real faces side by side through ``aamtrack run --max-faces 2``: the fits, poses
+    and expressions of each face, by its id, as the library's ``process_faces``."""
+    import cv2
+
+    from aamcore.io.video import video_frames
+
+    frames = video_frames(single_face)
+    two = tmp_path / "two.avi"
+    writer = cv2.VideoWriter(str(two), cv2.VideoWriter_fourcc(*"FFV1"), 30, (1280, 360))
+    for k in range(20):
+        writer.write(np.hstack([frames[k], frames[k + 36]]))
+    writer.release()
+    rec = tmp_path / "two.rec"
+    with Stack(stack_options(two, ar=False, record=str(rec), warp="cpu", max_faces=2)) as stack:
+        assert stack.wait() == "done"
+    messages = load_messages(rec)
+    by_face = {kind: {(m.header.frame_index, m.face_id): m for m in messages if kind == m.KIND}
+               for kind in ("fit", "pose", "expression")}
+    tracker = FaceTracker(model_path, classifier_path, smoothing=True,
+                          expression_hold=STACK_HOLD, max_faces=2)
+    both = 0
+    for k, results in enumerate(tracker.process_video_faces(two)):
+        fits = [m for (i, _), m in by_face["fit"].items() if i == k]
+        assert sorted(f.face_id for f in fits) == [r.face_id for r in results], k
+        assert all(f.faces == len(results) for f in fits), k
+        both += len(results) == 2 and all(r.success for r in results)
+        for result in results:
+            key = (k, result.face_id)
+            fit = by_face["fit"][key]
+            np.testing.assert_allclose(result.landmarks, fit.landmarks, atol=1e-3,
+                                       err_msg=str(key))
+            if key in by_face["pose"]:
+                np.testing.assert_allclose(result.rotation, by_face["pose"][key].rotation,
+                                           atol=1e-5)
+            assert (result.expression or "") == by_face["expression"][key].label, key
+    assert both >= GOOD_SHARE * 20
+    exported = results_of(messages).results  # aamtrack export: a row per face per frame
+    assert [(r.frame_index, r.face_id) for r in exported] == [
+        (m.header.frame_index, m.face_id) for m in messages if m.KIND == "fit"]
+    assert all(r.rotation is not None for r in exported if r.success and r.pose_reliable)
