@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aamcore.model.shape import ShapeModel
+from aamcore.model.similarity import Placement
 
 
 def similarity_basis(mean: np.ndarray) -> np.ndarray:
@@ -71,6 +72,7 @@ class ShapeSpace:
     def __post_init__(self) -> None:
         if not all(0 <= k < self.n_points for k in self.eye_corners):
             raise ValueError(f"eye corners {self.eye_corners} of a {self.n_points}-point shape")
+        object.__setattr__(self, "_placement", Placement(self.mean))
 
     @property
     def n_points(self) -> int:
@@ -85,12 +87,7 @@ class ShapeSpace:
     def similarity(self, shapes: np.ndarray) -> np.ndarray:
         """Least-squares ``(a, b)`` (..., 2) with ``shape ~ mean @ [[a, b], [-b, a]] + centroid``
         for ``shapes`` (..., N, 2): ``a = s cos(theta)``, ``b = s sin(theta)``."""
-        m = self.mean
-        norm = float(np.sum(m * m))
-        flat = shapes.reshape(*shapes.shape[:-2], -1)
-        a = flat @ m.ravel() / norm
-        b = flat @ np.stack([-m[:, 1], m[:, 0]], 1).ravel() / norm
-        return np.stack([a, b], axis=-1)
+        return self._placement.ab(shapes)
 
     def project(self, shapes: np.ndarray) -> np.ndarray:
         """The nearest shapes (S, N, 2) of the model, parameters limited, to image shapes

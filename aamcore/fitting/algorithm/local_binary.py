@@ -34,7 +34,7 @@ from aamcore.fitting.algorithm.local_hog import LandmarkHog
 from aamcore.fitting.learned import BinaryCascade
 from aamcore.fitting.result import LandmarkFit
 from aamcore.model.aam import AAM
-from aamcore.model.similarity import Similarity
+from aamcore.model.similarity import Placement, Similarity
 
 if TYPE_CHECKING:
     from aamcore.fitting.model import FittingModel
@@ -78,9 +78,9 @@ class LocalBinary:
         self.aam = aam
         space = cascade.space
         self.space = space
-        self._sim = self._similarity_matrix(space.mean)
+        self._sim = Placement(space.mean).matrix
         self._frame = aam.shape.mean_shape if aam is not None else space.mean
-        self._frame_sim = self._similarity_matrix(self._frame)
+        self._frame_place = Placement(self._frame)
         self._mean = space.mean
         self._modes, self._modes_t = space.modes, np.ascontiguousarray(space.modes.T)
         self._mean_proj = space.mean.ravel() @ space.modes
@@ -106,13 +106,6 @@ class LocalBinary:
             raise ValueError("this model has no local-binary cascade: train it with "
                              "`aamtrack train --fit` (68-point data)")
         return cls(model.binary, model.aam, settings)
-
-    @staticmethod
-    def _similarity_matrix(mean: np.ndarray) -> np.ndarray:
-        """(2N, 2) matrix giving a shape's least-squares ``(a, b)`` against centred ``mean``."""
-        m = mean - mean.mean(axis=0)
-        norm = float(np.sum(m * m))
-        return (np.stack([m.ravel(), np.stack([-m[:, 1], m[:, 0]], 1).ravel()]) / norm).T
 
     def prepare(self, image: np.ndarray, shape: np.ndarray | None = None) -> np.ndarray:
         """``image`` as the stages read it: uint8 BGR or grey (other inputs converted to grey)."""
@@ -228,10 +221,7 @@ class LocalBinary:
 
     def _similarity(self, points: np.ndarray) -> Similarity:
         """Least-squares placement of the model frame's mean shape on ``points`` (N, 2)."""
-        a, b = (points.ravel() @ self._frame_sim).tolist()
-        cx, cy = (points.mean(axis=0) - np.array([[a, -b], [b, a]])
-                  @ self._frame.mean(axis=0)).tolist()
-        return Similarity(a, b, cx, cy)
+        return self._frame_place.onto(points)
 
     def _result(self, points: np.ndarray, seconds: list[float], score: float, contrast: int
                 ) -> LandmarkFit:
