@@ -19,7 +19,14 @@ from aamcore.detection.haar import HaarFaceDetector, to_grey_uint8
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.result import FitResult
 from aamcore.fitting.search import SearchSchedule
-from aamcore.fitting.tracker import SEARCH_DEG, TURN_DEG, FaceDetector, Refit, Tracker
+from aamcore.fitting.tracker import (
+    SEARCH_DEG,
+    TURN_DEG,
+    FaceDetector,
+    Refit,
+    Tracker,
+    new_size,
+)
 from aamcore.fitting.upright import mapped, roll_of, rotated_view
 
 FOREHEAD = 0.35
@@ -233,10 +240,7 @@ class MultiTracker:
         self.frame += 1
         if self.max_faces == 1:
             return self._track_one(image)
-        if not isinstance(image, np.ndarray) or image.ndim not in (2, 3) or image.size == 0:
-            raise ValueError(f"not an image: {type(image).__name__} "
-                             f"{getattr(image, 'shape', '')}")
-        if image.shape[:2] != self.size:
+        if new_size(image, self.size):
             self.size = image.shape[:2]
             self.reset()
         kept: list[tuple[_Face, FitResult]] = []

@@ -146,10 +146,7 @@ class Tracker:
         ValueError
             For something that is not an image array.
         """
-        if not isinstance(image, np.ndarray) or image.ndim not in (2, 3) or image.size == 0:
-            raise ValueError(f"not an image: {type(image).__name__} "
-                             f"{getattr(image, 'shape', '')}")
-        if image.shape[:2] != self.size:
+        if new_size(image, self.size):
             self.size = image.shape[:2]
             self.reset()
         if self.last is not None:
@@ -247,6 +244,21 @@ class Tracker:
             return None
         view, to_view = rotated_view(image, angle)
         return mapped(self.fitter.fit_box(view, boxes[0]), to_view.inverse())
+
+
+def new_size(image: np.ndarray, size: tuple[int, ...]) -> bool:
+    """Whether ``image`` is of another size than ``size`` (``shape[:2]``: a tracker's last
+    frame's, whose fit says nothing of it).
+
+    Raises
+    ------
+    ValueError
+        For something that is not an image array.
+    """
+    if not isinstance(image, np.ndarray) or image.ndim not in (2, 3) or image.size == 0:
+        raise ValueError(f"not an image: {type(image).__name__} "
+                         f"{getattr(image, 'shape', '')}")
+    return image.shape[:2] != size
 
 
 def fit_upright(fitter: Fitter, image: np.ndarray, shape: np.ndarray) -> FitResult:

@@ -78,3 +78,21 @@ def peer(bus_pair: tuple[BusOptions, BusOptions]) -> Iterator[Service]:
     """An open service session listening on the pair's endpoint (name ``probe``)."""
     with Service("probe", bus_pair[0], status_period=0.2, handle_signals=False) as svc:
         yield svc
+
+
+@pytest.fixture(scope="session")
+def two_faces(single_face: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A lossless 20-frame video of two real faces side by side (frames k and k + 36 of the
+    face video)."""
+    import cv2
+    import numpy as np
+
+    from aamcore.io.video import video_frames
+
+    frames = video_frames(single_face)
+    path = tmp_path_factory.mktemp("two_faces") / "two.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), 30, (1280, 360))
+    for k in range(20):
+        writer.write(np.hstack([frames[k], frames[k + 36]]))
+    writer.release()
+    return path
