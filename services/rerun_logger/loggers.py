@@ -22,6 +22,9 @@ from services.rerun_logger.series import SeriesWriter
 
 BOX_COLOUR = (255, 200, 0)
 OCCLUDED_COLOUR = (255, 0, 255)
+FACE_COLOURS = ((80, 200, 120), (80, 160, 255), (255, 170, 60), (200, 110, 255),
+                (255, 90, 140), (60, 220, 220), (220, 220, 80), (150, 150, 150))
+"""Each face's colour (its id modulo the count): the box around its landmarks."""
 """Landmarks covered by something, RGB: magenta rings over their part's colour."""
 RESIDUAL_SCALE = 80.0
 """Grey levels per unit of the texture residual |r| in the residual image (3 units: white)."""
@@ -138,7 +141,12 @@ class FitLogger:
         landmarks = ent.of_face(ent.LANDMARKS, face)
         if n == 0:  # no face: clear the previous landmarks
             self._rec.log(landmarks, rr.Points2D(np.zeros((0, 2), np.float32)))
+            self._rec.log(ent.of_face(ent.FACE, face), rr.Clear(recursive=False))
         else:
+            low, high = msg.landmarks.min(axis=0), msg.landmarks.max(axis=0)
+            self._rec.log(ent.of_face(ent.FACE, face), rr.Boxes2D(
+                mins=[low], sizes=[high - low], colors=[FACE_COLOURS[face % len(FACE_COLOURS)]],
+                labels=[f"face {msg.face_id}" if msg.face_id >= 0 else "failed fit"]))
             class_ids = log_landmark_classes(self._rec, self._classes, msg.scheme, n, msg.failed)
             self._rec.log(
                 landmarks,
@@ -165,7 +173,7 @@ class FitLogger:
         if len(self._this) < msg.faces:
             return
         for gone in self._shown - self._this:
-            for path in (ent.LANDMARKS, ent.OCCLUDED, ent.RESIDUAL):
+            for path in (ent.LANDMARKS, ent.FACE, ent.OCCLUDED, ent.RESIDUAL):
                 self._rec.log(ent.of_face(path, gone), rr.Clear(recursive=False))
         self._shown = set(self._this)
 

@@ -169,6 +169,30 @@ def test_fit_logger_clears_landmarks_when_no_face_is_found(new_recording, rrd_to
     assert content.mono(f"/{ent.FIT_SERIES}/failed", "Scalars:scalars") == [0.0, 1.0]
 
 
+def test_each_face_has_entities_of_its_own_and_a_face_gone_is_cleared(new_recording,
+                                                                      rrd_tools):
+    rec = new_recording()
+    logger = FitLogger(rec.stream, LandmarkClasses(), SeriesWriter(rec.stream))
+    golden_fit = golden_messages()["fit"]
+    other = dataclasses.replace(golden_fit, landmarks=golden_fit.landmarks + 100.0, face_id=3,
+                                faces=2)
+    _at(rec, 0)
+    logger.log(dataclasses.replace(golden_fit, faces=2))
+    logger.log(other)
+    _at(rec, 1)
+    later = dataclasses.replace(golden_fit.header, frame_index=golden_fit.header.frame_index + 1)
+    logger.log(dataclasses.replace(golden_fit, header=later))  # face 0 only: face 3 is cleared
+    content = _finished(rec, rrd_tools)
+    assert [len(p) for p in content.values(LANDMARKS, "Points2D:positions")] == [68, 68]
+    third = content.values(f"/{ent.of_face(ent.LANDMARKS, 3)}", "Points2D:positions")
+    assert len(third[0]) == 68 and np.allclose(third[0], golden_fit.landmarks + 100.0)
+    assert len(content.rows[f"/{ent.of_face(ent.LANDMARKS, 3)}"]) == 2  # drawn, then cleared
+    labels = content.values(f"/{ent.of_face(ent.FACE, 3)}", "Boxes2D:labels")
+    assert labels[0] == ["face 3"]
+    assert ent.of_face(ent.GLASSES_FRAME, 3) == "world/head_3/glasses/frame"
+    assert ent.of_face(ent.LANDMARKS, -1) == ent.LANDMARKS
+
+
 def test_fit_logger_draws_unknown_schemes_without_connections(new_recording, rrd_tools, imm_dir):
     imm = load_annotated_folder(imm_dir, limit=1).samples[0]
     rec = new_recording()
