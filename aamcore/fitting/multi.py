@@ -19,14 +19,7 @@ from aamcore.detection.haar import HaarFaceDetector, to_grey_uint8
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.result import FitResult
 from aamcore.fitting.search import SearchSchedule
-from aamcore.fitting.tracker import (
-    SEARCH_DEG,
-    TURN_DEG,
-    FaceDetector,
-    Refit,
-    Tracker,
-    new_size,
-)
+from aamcore.fitting.tracker import SEARCH_DEG, TURN_DEG, FaceDetector, Refit, Tracker, new_size
 from aamcore.fitting.upright import mapped, roll_of, rotated_view
 
 FOREHEAD = 0.35
