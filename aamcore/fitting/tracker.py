@@ -72,10 +72,11 @@ class Refit:
 NEVER = Refit()
 """Track only."""
 DEFAULT_REFIT = Refit(every=6)
-"""The tracker's default: a refit every sixth tracked frame (``bench/bench_tracking.py``:
-on the non-rigid sequences mean NME 0.053 instead of 0.071, the jaw's 0.076 instead of
-0.113, about 1 ms more per frame on average; on the rigid ones 0.065 instead of 0.081 with
-as many good fits)."""
+"""The tracker's default: a refit every sixth tracked frame (``bench/bench_tracking.py``,
+fern stages trained on 8 starts per face: on the non-rigid sequences mean NME 0.051
+instead of 0.065, the jaw's 0.074 instead of 0.105, about 0.8 ms more per frame on
+average; on the rigid ones 0.063 instead of 0.077 with as many good fits; every twelfth
+frame: 0.057 and 0.067)."""
 
 
 class FaceDetector(Protocol):
