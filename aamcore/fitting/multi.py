@@ -19,7 +19,7 @@ from aamcore.detection.haar import HaarFaceDetector, to_grey_uint8
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.result import FitResult
 from aamcore.fitting.search import SearchSchedule
-from aamcore.fitting.tracker import SEARCH_DEG, TURN_DEG, FaceDetector, Refit, Tracker, new_size
+from aamcore.fitting.tracker import FaceDetector, Refit, Tracker, new_size, turn_for_search
 from aamcore.fitting.upright import mapped, roll_of, rotated_view
 
 FOREHEAD = 0.35
@@ -36,8 +36,8 @@ class NewFaces:
     every : int
         Search for faces not yet tracked every this many frames while fewer than
         ``max_faces`` are tracked, upright and in the frame turned by 25 degrees in turn
-        (a Haar pass is 7-10 ms at 960x540: every fifth frame costs under 2 ms a frame on
-        average, ``bench/bench_multiface.py``).
+        (every fifth frame: the search costs 0.97 ms a frame on average at 960x540,
+        ``bench/bench_multiface.py``).
     regain_frames : int
         A face found again within this many frames of being lost ...
     regain_distance : float
@@ -149,15 +149,17 @@ def overlap(a: np.ndarray, b: np.ndarray) -> float:
     return float(w * h / smaller) if smaller > 0 else 1.0
 
 
-def blanked(grey: np.ndarray, fits: list[FitResult]) -> np.ndarray:
-    """``grey`` with each fitted face covered by the frame's mean grey (a copy when any)."""
+def blanked(grey: np.ndarray, fits: list[FitResult], offset: tuple[int, int] = (0, 0)
+            ) -> np.ndarray:
+    """``grey`` (a window of the frame whose top-left corner is at ``offset``) with each fitted
+    face covered by its mean grey (a copy when any)."""
     if not fits:
         return grey
     out = grey.copy()
     fill = int(grey.mean())
     h, w = grey.shape[:2]
     for fit in fits:
-        x0, y0, x1, y1 = landmark_box(fit.points)
+        x0, y0, x1, y1 = landmark_box(fit.points) - np.tile(offset, 2)
         mx, my = FOREHEAD * (x1 - x0), FOREHEAD * (y1 - y0)
         left, right = int(max(0, x0 - mx)), int(min(w, math.ceil(x1 + mx)))
         top, bottom = int(max(0, y0 - 2 * my)), int(min(h, math.ceil(y1 + my)))
@@ -304,17 +306,20 @@ class MultiTracker:
         else:
             upright, turned = self.search.passes(self.misses)
             angles = [0.0] * upright + [self._turn()] * turned
-        grey = to_grey_uint8(image)
+        near = [gone for gone in self.ids.alive(self.frame)
+                if (self.frame - gone.frame) % 2 == 1] if tracked and not lost else []
+        if not near and not angles:
+            if not tracked:
+                self.misses += 1
+            return []
+        grey = to_grey_uint8(image)  # only on the frames that search
         found: list[FitResult] = []
-        if tracked and not lost:
-            for gone in self.ids.alive(self.frame):
-                if (self.frame - gone.frame) % 2 == 0:  # every second frame
-                    continue
-                self.searches += 1
-                found += self._new(self._fits_near(image, grey, gone, tracked + found),
-                                   tracked + found, room - len(found))
-                if len(found) >= room:
-                    return found
+        for gone in near:  # every second frame
+            self.searches += 1
+            found += self._new(self._fits_near(image, grey, gone, tracked + found),
+                               tracked + found, room - len(found))
+            if len(found) >= room:
+                return found
         for angle in angles:
             self.searches += 1
             taken = tracked + found
@@ -376,17 +381,15 @@ class MultiTracker:
         y0, y1 = int(max(0, gone.centre[1] - 1.3 * half)), int(min(h, gone.centre[1] + half))
         if x1 - x0 < 24 or y1 - y0 < 24:
             return []
-        window = blanked(grey, taken)[y0:y1, x0:x1]
-        boxes = self._boxes(np.ascontiguousarray(window), taken, (x0, y0))
+        window = blanked(np.ascontiguousarray(grey[y0:y1, x0:x1]), taken, (x0, y0))
+        boxes = self._boxes(window, taken, (x0, y0))
         return [fit for fit in (self.fitter.fit_box(image, box) for box in boxes) if fit.ok]
 
     def _turn(self) -> float:
         """The angle to turn the frame by in a search besides upright (as the single
         tracker's)."""
-        if abs(self._roll) > math.radians(TURN_DEG):
-            return self._roll
-        self._side = -self._side
-        return self._side * math.radians(SEARCH_DEG)
+        angle, self._side = turn_for_search(self._roll, self._side)
+        return angle
 
 
 def _step(before: FitResult, after: FitResult) -> float:

@@ -226,10 +226,8 @@ class Tracker:
 
     def _turn(self) -> float:
         """The angle to turn the frame by in a search besides upright."""
-        if abs(self.roll) > math.radians(TURN_DEG):
-            return self.roll
-        self._side = -self._side
-        return self._side * math.radians(SEARCH_DEG)
+        angle, self._side = turn_for_search(self.roll, self._side)
+        return angle
 
     def _detect_and_fit(self, image: np.ndarray, angle: float) -> FitResult | None:
         """The fit from the largest face found in ``image`` turned by ``-angle``; None when
@@ -245,6 +243,15 @@ class Tracker:
             return None
         view, to_view = rotated_view(image, angle)
         return mapped(self.fitter.fit_box(view, boxes[0]), to_view.inverse())
+
+
+def turn_for_search(roll: float, side: float) -> tuple[float, float]:
+    """The angle (radians) to turn the frame by in a search besides upright, and the side
+    to turn to next time: the last good fit's ``roll`` when it is past :data:`TURN_DEG`,
+    else :data:`SEARCH_DEG` to the other ``side`` (+1 or -1) than last time."""
+    if abs(roll) > math.radians(TURN_DEG):
+        return roll, side
+    return -side * math.radians(SEARCH_DEG), -side
 
 
 def new_size(image: np.ndarray, size: tuple[int, ...]) -> bool:

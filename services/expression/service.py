@@ -38,6 +38,7 @@ from aamcore.expression.recogniser import ExpressionRecogniser, Recognition
 from aamcore.expression.training import check_made_for, model_fingerprint
 from proto import Expression, Fit, Frame, ProtoError
 from services.bus.args import parse_service_args
+from services.bus.faces import PerFace
 from services.bus.images import image_of
 from services.bus.inbox import Received, Recent
 from services.bus.process import init_process
@@ -45,8 +46,6 @@ from services.bus.session import Service
 from services.expression.options import ExpressionOptions
 
 NAME = "expression"
-FORGET_FRAMES = 90
-"""Frames after which a face not seen is forgotten (as long as a face id can be regained)."""
 FRAMES_KEPT = 64
 """Frames kept for the fits still to come: more than the fit backlog, so that a fit waiting
 in it still finds its frame, up to :data:`MAX_FRAMES_KEPT`."""
@@ -147,9 +146,8 @@ class ExpressionStream:
     """The recognisers of the fits of one run, one per face (its reference, smoothing and
     label hold), with the frames they were made on.
 
-    The first recogniser is face 0's and hears of the frames without a face (``face_id``
-    -1), as the library's one face does; a face not seen for :data:`FORGET_FRAMES` frames
-    is forgotten.
+    One recogniser per face (:class:`services.bus.faces.PerFace`): face 0's, the first,
+    also hears of the frames without a face (``face_id`` -1), as the library's does.
     """
 
     def __init__(self, svc: Service, recogniser: ExpressionRecogniser, frames: Recent) -> None:
@@ -158,20 +156,11 @@ class ExpressionStream:
         self.frames = frames
         self.unclassified = Unclassified()
         self._run: str | None = None
-        self._faces: dict[int, tuple[ExpressionRecogniser, int]] = {}
+        self._faces = PerFace(recogniser.fresh, ExpressionRecogniser.reset, recogniser)
 
     def recogniser_of(self, fit: Fit) -> ExpressionRecogniser:
         """The recogniser of the face of ``fit``."""
-        key, index = max(fit.face_id, 0), fit.header.frame_index
-        self._faces = {k: v for k, v in self._faces.items()
-                       if 0 <= index - v[1] <= FORGET_FRAMES or k == 0}
-        known = self._faces.get(key)
-        if known is None:
-            first = self.recogniser
-            made = first if key == 0 else first.fresh()
-            known = (made, index)
-        self._faces[key] = (known[0], index)
-        return known[0]
+        return self._faces.of(max(fit.face_id, 0), fit.header.frame_index)
 
     def handle(self, fit: Fit) -> Expression:
         """The expression of a fit: a label, or none and why (counted; rejected when the fit

@@ -22,13 +22,12 @@ from aamcore.pose.estimator import Cameras, HeadPoseEstimator, HeadPoseTracker
 from aamcore.pose.reliability import reason_key
 from proto import Fit, HeadPose, ProtoError
 from services.bus.args import parse_service_args
+from services.bus.faces import PerFace
 from services.bus.process import init_process
 from services.bus.session import Service
 from services.pose.options import PoseOptions
 
 NAME = "pose"
-FORGET_FRAMES = 90
-"""Frames after which a face not seen is forgotten (as long as a face id can be regained)."""
 
 
 def pose_message(svc: Service, fit: Fit, poses: HeadPoseTracker) -> HeadPose:
@@ -53,13 +52,11 @@ def pose_message(svc: Service, fit: Fit, poses: HeadPoseTracker) -> HeadPose:
 
 class FacePoses:
     """A pose tracker per face id (its smoothing, and with ``contour+calib`` its own head
-    model learned online), made as the first; a face not seen for :data:`FORGET_FRAMES`
-    frames is forgotten."""
+    model learned online), :class:`services.bus.faces.PerFace`."""
 
     def __init__(self, make: Callable[[], HeadPoseTracker]) -> None:
-        self.make = make
-        self.first = make()
-        self.faces: dict[int, tuple[HeadPoseTracker, int]] = {}
+        self.faces = PerFace(make, HeadPoseTracker.reset)
+        self.first = self.faces.first
 
     def of(self, fit: Fit) -> HeadPoseTracker:
         """The tracker of the face of ``fit``; a failed fit (no face tracked) restarts every
@@ -67,20 +64,11 @@ class FacePoses:
         if fit.face_id < 0:
             self.reset()
             return self.first
-        index = fit.header.frame_index
-        self.faces = {k: v for k, v in self.faces.items() if index - v[1] <= FORGET_FRAMES
-                      and v[1] <= index}
-        known = self.faces.get(fit.face_id)
-        if known is None:
-            mine = not any(p is self.first for p, _ in self.faces.values())
-            known = (self.first if mine else self.make(), index)
-            known[0].reset()
-        self.faces[fit.face_id] = (known[0], index)
-        return known[0]
+        return self.faces.of(fit.face_id, fit.header.frame_index)
 
     def reset(self) -> None:
         """A frame without a face: every face's pose starts afresh."""
-        for poses, _ in self.faces.values():
+        for poses in self.faces.states():
             poses.reset()
 
 
