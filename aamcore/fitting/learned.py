@@ -54,6 +54,9 @@ class BinaryCascade:
         A fit whose quality score is above it has failed.
     report : dict
         How it was trained (JSON-ready).
+    restart : list of FernStage
+        Run, before ``tracking``, from the mean shape placed by a similarity on the previous
+        frame's landmarks: a fit of each frame that keeps no error of the last (empty: none).
     """
 
     space: ShapeSpace
@@ -62,12 +65,13 @@ class BinaryCascade:
     quality: FernStage
     threshold: float
     report: dict[str, Any] = field(default_factory=dict)
+    restart: list[FernStage] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         if not self.tracking:
             raise ValueError("a local-binary cascade needs at least one fern stage")
         q = self.space.basis.shape[1]
-        for k, stage in enumerate(self.tracking):
+        for k, stage in enumerate([*self.restart, *self.tracking]):
             if stage.bias.shape != (q,) or stage.n_points != self.space.n_points:
                 raise ValueError(f"fern stage {k} does not fit the shape space ({q} directions, "
                                  f"{self.space.n_points} points)")
@@ -81,9 +85,12 @@ class BinaryCascade:
             arrays.update(stage.arrays(f"{prefix}_coarse{k}"))
         for k, stage in enumerate(self.tracking):
             arrays.update(stage.arrays(f"{prefix}_fern{k}"))
+        for k, stage in enumerate(self.restart):
+            arrays.update(stage.arrays(f"{prefix}_restart{k}"))
         arrays.update(self.quality.arrays(f"{prefix}_quality"))
         header = {"coarse": len(self.coarse), "tracking": len(self.tracking),
-                  "threshold": self.threshold, "report": self.report}
+                  "restart": len(self.restart), "threshold": self.threshold,
+                  "report": self.report}
         return header, arrays
 
     @classmethod
@@ -98,4 +105,6 @@ class BinaryCascade:
              for k in range(int(header["tracking"]))],
             FernStage.from_arrays(arrays, f"{prefix}_quality"),
             float(header["threshold"]), dict(header.get("report", {})),
+            [FernStage.from_arrays(arrays, f"{prefix}_restart{k}")
+             for k in range(int(header.get("restart", 0)))],
         )

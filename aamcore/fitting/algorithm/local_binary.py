@@ -2,8 +2,12 @@
 
 From a detection (acquisition) the start shape goes through coarse
 landmark-HOG stages (:mod:`~aamcore.fitting.algorithm.local_hog`), then the
-fern stages (:mod:`~aamcore.fitting.algorithm.ferns`); from the previous
-frame's landmarks (tracking) through the fern stages alone. Every step is
+fern stages (:mod:`~aamcore.fitting.algorithm.ferns`). From the previous
+frame's landmarks (tracking) it goes through the fern stages alone and, where
+the cascade has restart stages, also afresh as dlib's tracker does: the mean
+shape placed by a similarity on those landmarks, through the restart stages and
+then the fern stages; the fit with the better quality score is kept, so a
+tracked face keeps no error the expression left on the last frame. Every step is
 taken in the basis of :class:`~aamcore.fitting.shape_space.ShapeSpace` and the
 shape projected onto the shape model (3 sd) after each coarse stage and after
 the last fern stage. One more fern stage regresses the fit's ``log(NME)`` (its
@@ -90,8 +94,10 @@ class LocalBinary:
         self._hogs = [LandmarkHog(space.mean, c.iod, c.window, c.cells, unit)
                       for c in cascade.coarse]
         self._ferns = [FernRunner(s) for s in cascade.tracking]
+        self._restart = [FernRunner(s) for s in cascade.restart]
         self._quality = FernRunner(cascade.quality)
-        self._reach = MARGIN * max(s.radius for s in [*cascade.tracking, cascade.quality])
+        self._reach = MARGIN * max(s.radius for s in [*cascade.tracking, *cascade.restart,
+                                                      cascade.quality])
 
     @classmethod
     def from_model(cls, model: FittingModel, settings: AlgorithmSettings) -> LocalBinary:
@@ -142,11 +148,49 @@ class LocalBinary:
         return self._fern_fit(image, shape, seconds)
 
     def track_points(self, image: np.ndarray, previous: np.ndarray) -> LandmarkFit:
-        """Fit from landmarks (N, 2) of the previous frame with the fern stages."""
+        """Fit from landmarks (N, 2) of the previous frame with the fern stages, and afresh
+        from the mean shape placed on them where the cascade has restart stages (the fit
+        with the lower quality score)."""
         previous = np.asarray(previous, np.float64)
         if not np.all(np.isfinite(previous)):
             return self._failed(previous, "non-finite start shape")
-        return self._fern_fit(image, previous, [])
+        if not self._restart:
+            return self._fern_fit(image, previous, [])
+        # one region for both fits: it reaches as far as the restart stages read
+        region = self.region(image, previous)
+        tracked = self._fern_fit(image, previous, [], region)
+        restarted = self.restart(image, previous, list(tracked.seconds), region)
+        return restarted if restarted.score < tracked.score else tracked
+
+    def restart(self, image: np.ndarray, previous: np.ndarray,
+                seconds: list[float] | None = None, region: _Region | None = None
+                ) -> LandmarkFit:
+        """Fit afresh from the mean shape placed on landmarks ``previous`` (N, 2): the restart
+        stages, projection, the fern stages (only the placement of ``previous`` counts), in
+        ``region`` (the one around ``previous`` by default).
+
+        Raises
+        ------
+        ValueError
+            When the cascade has no restart stages.
+        """
+        if not self._restart:
+            raise ValueError("this cascade has no restart stages")
+        seconds = [] if seconds is None else seconds
+        previous = np.asarray(previous, np.float64)
+        start = self.placed_mean(previous)
+        region = region or self.region(image, previous)
+        if region is None:
+            return self._failed(start, "the face lies outside the frame", seconds)
+        current = self.project(self._stages(region, start - region.origin, self._restart,
+                                            seconds))
+        return self._fern_fit(image, current + region.origin, seconds, region)
+
+    def placed_mean(self, shape: np.ndarray) -> np.ndarray:
+        """The cascade's mean shape placed by the least-squares similarity on ``shape``
+        (N, 2): where the restart stages start."""
+        a, b = (shape.ravel() @ self._sim).tolist()
+        return self._mean @ np.array([[a, b], [-b, a]]) + shape.mean(axis=0)
 
     def score(self, image: np.ndarray, points: np.ndarray) -> float:
         """Quality score of landmarks ``points`` (N, 2): the predicted log NME (high: poor fit
@@ -192,23 +236,30 @@ class LocalBinary:
         a, b = shape.ravel() @ self._sim
         return np.array([[a, -b], [b, a]])
 
-    def _fern_fit(self, image: np.ndarray, shape: np.ndarray, seconds: list[float]
-                  ) -> LandmarkFit:
-        """The fern stages from ``shape`` (N, 2), projection, quality score, result."""
-        region = self.region(image, shape)
+    def _fern_fit(self, image: np.ndarray, shape: np.ndarray, seconds: list[float],
+                  region: _Region | None = None) -> LandmarkFit:
+        """The fern stages from ``shape`` (N, 2) in ``region`` (the one around ``shape`` by
+        default), projection, quality score, result."""
+        region = region or self.region(image, shape)
         if region is None:
             return self._failed(shape, "the face lies outside the frame", seconds)
-        current = shape - region.origin
-        for runner in self._ferns:
+        current = self.project(self._stages(region, shape - region.origin, self._ferns,
+                                            seconds))
+        score, contrast = self._score(region, current)
+        return self._result(current + region.origin, seconds, score, contrast)
+
+    def _stages(self, region: _Region, current: np.ndarray, stages: list[FernRunner],
+                seconds: list[float]) -> np.ndarray:
+        """``current`` (N, 2, region pixels) moved by fern ``stages``, each one's time added
+        to ``seconds``."""
+        for runner in stages:
             begun = time.perf_counter()
             rot = self._rot(current)
             dq = runner.output(runner.values(region.pixels, region.width, region.limit,
                                              current, rot))
             current = current + (dq @ self._basis_t).reshape(-1, 2) @ rot.T
             seconds.append(time.perf_counter() - begun)
-        current = self.project(current)
-        score, contrast = self._score(region, current)
-        return self._result(current + region.origin, seconds, score, contrast)
+        return current
 
     def _score(self, region: _Region, shape: np.ndarray) -> tuple[float, int]:
         """Quality score at ``shape`` (region pixels) and the spread of the pixels it read."""
