@@ -72,11 +72,13 @@ class Refit:
 NEVER = Refit()
 """Track only."""
 DEFAULT_REFIT = Refit(every=6)
-"""The tracker's default: a refit every sixth tracked frame (``bench/bench_tracking.py``,
-fern stages trained on 8 starts per face: on the non-rigid sequences mean NME 0.051
-instead of 0.065, the jaw's 0.074 instead of 0.105, about 0.8 ms more per frame on
-average; on the rigid ones 0.063 instead of 0.077 with as many good fits; every twelfth
-frame: 0.057 and 0.067)."""
+"""The tracker's default: a refit every sixth tracked frame. With the restart stages that
+fit every tracked frame afresh from the mean placed on the last landmarks (recipe fitting
+v11), ``bench/bench_tracking.py --per-set 4 --nonrigid 4`` measured mean NME 0.0515 on the
+non-rigid sequences instead of 0.0519 without refits, 0.0571 instead of 0.0580 on the rigid
+ones, for about 0.8 ms more per frame on average; before the restart stages the refits
+took the non-rigid sequences from 0.0644 to 0.0506 and the rigid ones from 0.0772 to
+0.0614."""
 
 
 class FaceDetector(Protocol):

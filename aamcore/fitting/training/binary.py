@@ -11,8 +11,11 @@ non-rigid sequences and 0.078 instead of 0.083 on the rigid ones, means over two
 three fern seeds, held-out stills unchanged or slightly better; the fern stages train in
 146 s instead of 99 s on two cores, the default model in 287 s instead of 250 s; starts
 drawn toward other faces' aligned shapes were tried and did not help), cross-fitted in 2
-folds of photos; one fern stage regressing ``log(NME)`` on shapes from good to far off
-and on frames without a face; the failure threshold calibrated on held-out fits.
+folds of photos; 3 restart stages (radii 0.4, 0.3, 0.2) trained from the mean shape placed
+on the truth as frame-to-frame motion moves it, 4 starts per face (dlib's scheme for
+tracking: each frame starts afresh; 71 s on two cores); one fern stage regressing
+``log(NME)`` on shapes from good to far off and on frames without a face; the failure
+threshold calibrated on held-out fits.
 """
 
 from __future__ import annotations
@@ -60,6 +63,15 @@ class BinaryTrainConfig:
     tracking : tuple of FernConfig
         The fern stages (from a detection after ``coarse``, and from the
         previous frame's landmarks).
+    restart : tuple of FernConfig
+        The restart stages: from the mean shape placed by a similarity on the previous
+        frame's landmarks, before the fern stages (none: the tracker only tracks).
+    restart_starts : int
+        Starts per face for the restart stages.
+    restart_noise : (4,) floats
+        Spread of those starts' placement around the truth's: log scale, angle (radians),
+        x and y shift (fractions of the eye-corner distance), as a face moves between two
+        frames.
     quality : QualityConfig
     starts : int
         Starts per face for the coarse stages: the real one and random ones
@@ -89,6 +101,9 @@ class BinaryTrainConfig:
     )
     hog_ridge: float = 1.0
     tracking: tuple[FernConfig, ...] = (FernConfig(0.2), FernConfig(0.12), FernConfig(0.08))
+    restart: tuple[FernConfig, ...] = (FernConfig(0.4), FernConfig(0.3), FernConfig(0.2))
+    restart_starts: int = 4
+    restart_noise: tuple[float, float, float, float] = (0.04, 0.04, 0.05, 0.05)
     quality: QualityConfig = QualityConfig()
     starts: int = 5
     noise_scale: float = 1.25
@@ -130,18 +145,35 @@ def tracking_samples(space: ShapeSpace, faces: Sequence[TrainingFace], config: B
                      rng: np.random.Generator) -> Samples:
     """The fern stages' samples: the truth moved as frame-to-frame motion moves it, in
     cross-fitting folds of photos."""
+    *rigid, shape_sd = config.track_noise
+    return moved_samples(space, faces, config, config.track_starts, rigid, rng, shape_sd)
+
+
+def restart_samples(space: ShapeSpace, faces: Sequence[TrainingFace], config: BinaryTrainConfig,
+                    rng: np.random.Generator) -> Samples:
+    """The restart stages' samples: the mean shape placed on the truth as frame-to-frame
+    motion moves it, in cross-fitting folds of photos."""
+    return moved_samples(space, faces, config, config.restart_starts, config.restart_noise, rng)
+
+
+def moved_samples(space: ShapeSpace, faces: Sequence[TrainingFace], config: BinaryTrainConfig,
+                  starts: int, rigid: Sequence[float], rng: np.random.Generator,
+                  shape_sd: float | None = None) -> Samples:
+    """``starts`` samples per face placed about the truth with similarity noise ``rigid``
+    (log scale, angle, shifts in eye-corner distances): the truth's own shape moved by
+    ``shape_sd`` sd, or the mean shape for None."""
     truths = np.stack([f.points for f in faces])
-    ls, ang, dx, dy, shape_sd = config.track_noise
-    owners = np.repeat(np.arange(len(faces)), config.track_starts)
+    ls, ang, dx, dy = rigid
+    owners = np.repeat(np.arange(len(faces)), starts)
     unit = space.eye_distance
     sd = np.array([ls, ang, dx * unit, dy * unit])
-    starts = perturbed_starts(space, truths[owners], np.zeros(4), sd, rng, shape_sd=shape_sd)
+    shapes = perturbed_starts(space, truths[owners], np.zeros(4), sd, rng, shape_sd=shape_sd)
     folds = None
     if config.folds > 1:
         photos = np.array([f.photo for f in faces])
         fold_of = np.random.default_rng(config.seed + 7).permutation(photos.max() + 1)
         folds = (fold_of % config.folds)[photos[owners]]
-    return Samples(owners, truths[owners], starts, folds)
+    return Samples(owners, truths[owners], shapes, folds)
 
 
 def quality_stage_of(space: ShapeSpace, faces: Sequence[TrainingFace],
@@ -192,14 +224,23 @@ def train_binary_cascade(
                                config.n_jobs, bar("coarse HOG stages"))
     coarse_seconds = time.perf_counter() - begun
     samples = tracking_samples(space, faces, config, rng)
-    ferns = train_fern_cascade(PackedImages.pack(greys), samples, space, config.tracking,
+    packed = PackedImages.pack(greys)
+    ferns = train_fern_cascade(packed, samples, space, config.tracking,
                                np.random.default_rng(config.seed + 2), config.n_jobs,
                                bar("fern stages"))
     fern_seconds = time.perf_counter() - begun - coarse_seconds
+    restart = []
+    if config.restart:
+        samples = restart_samples(space, faces, config, np.random.default_rng(config.seed + 4))
+        restart = train_fern_cascade(packed, samples, space, config.restart,
+                                     np.random.default_rng(config.seed + 5), config.n_jobs,
+                                     bar("restart stages"))
+    restart_seconds = time.perf_counter() - begun - coarse_seconds - fern_seconds
     quality = quality_stage_of(space, faces, no_faces, config,
                                np.random.default_rng(config.seed + 3))
     report.update(faces=len(faces), shape_modes=int(space.modes.shape[1]),
                   no_face_frames=len(no_faces), config=config.to_json())
     note(f"local-binary cascade trained in {time.perf_counter() - begun:.0f} s (coarse stages "
-         f"{coarse_seconds:.0f} s, fern stages {fern_seconds:.0f} s)")
-    return BinaryCascade(space, coarse, ferns, quality, config.threshold, report)
+         f"{coarse_seconds:.0f} s, fern stages {fern_seconds:.0f} s, restart stages "
+         f"{restart_seconds:.0f} s)")
+    return BinaryCascade(space, coarse, ferns, quality, config.threshold, report, restart)

@@ -141,6 +141,7 @@ def synthetic_binary_config():
     return BinaryTrainConfig(
         coarse=(HogConfig(24.0, 16), HogConfig(32.0, 16)),
         tracking=(FernConfig(0.3, n_ferns=3), FernConfig(0.15, n_ferns=3)),
+        restart=(FernConfig(0.4, n_ferns=3),), restart_starts=3,
         quality=QualityConfig(FernConfig(0.3, n_ferns=2, depth=4), per_face=6, per_no_face=10),
         shape_variance=0.98, n_jobs=1, threshold=-2.0)
 

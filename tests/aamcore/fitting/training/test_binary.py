@@ -9,6 +9,7 @@ from aamcore.fitting.training.binary import (
     THRESHOLD,
     BinaryTrainConfig,
     coarse_samples,
+    restart_samples,
     tracking_samples,
 )
 
@@ -18,6 +19,8 @@ def test_the_cascade_has_what_the_recipe_asks(synthetic_binary, synthetic_binary
     assert len(synthetic_binary.coarse) == len(config.coarse)
     assert len(synthetic_binary.tracking) == len(config.tracking)
     assert synthetic_binary.tracking[0].n_ferns == 3 * synthetic_binary.space.n_points
+    assert [s.radius for s in synthetic_binary.restart] == [
+        c.radius * synthetic_binary.space.eye_distance for c in config.restart]
     assert synthetic_binary.quality.bias.shape == (1,)
     assert synthetic_binary.threshold == config.threshold
     report = synthetic_binary.report
@@ -29,6 +32,7 @@ def test_default_recipe_is_the_research_one() -> None:
     config = BinaryTrainConfig()
     assert len(config.coarse) == 6 and [f.radius for f in config.tracking] == [0.2, 0.12, 0.08]
     assert all(f.n_ferns == 4 and f.depth == 5 for f in config.tracking)
+    assert [f.radius for f in config.restart] == [0.4, 0.3, 0.2] and config.restart_starts == 4
     assert config.shape_variance == 0.995 and config.threshold == THRESHOLD == -2.47
 
 
@@ -42,3 +46,21 @@ def test_samples_start_from_the_real_start_and_fold_by_photo(synthetic_training_
     tracking = tracking_samples(space, faces, config, np.random.default_rng(1))
     assert tracking.folds is not None and set(tracking.folds.tolist()) == {0, 1}
     assert np.array_equal(tracking.folds[::2], tracking.folds[1::2])  # a photo in one fold
+
+
+def test_restart_samples_start_from_the_mean_placed_near_the_truth(synthetic_training_faces
+                                                                   ) -> None:
+    faces = synthetic_training_faces
+    space = ShapeSpace.train(np.stack([f.points for f in faces]), 0.98, (0, 1))
+    config = BinaryTrainConfig(restart_starts=3)
+    samples = restart_samples(space, faces, config, np.random.default_rng(2))
+    assert len(samples.owners) == 3 * len(faces) and samples.folds is not None
+    ab = space.similarity(samples.shapes)
+    rot = np.stack([np.stack([ab[:, 0], ab[:, 1]], -1), np.stack([-ab[:, 1], ab[:, 0]], -1)], 1)
+    centred = samples.shapes - samples.shapes.mean(axis=1, keepdims=True)
+    s2 = (ab ** 2).sum(axis=1)[:, None, None]
+    model = np.einsum("snk,sjk->snj", centred, rot) / s2  # back in the model frame
+    assert np.allclose(model, space.mean, atol=1e-6)  # every start is the mean shape
+    truth_centres = samples.truths.mean(axis=1)
+    shift = np.linalg.norm(samples.shapes.mean(axis=1) - truth_centres, axis=1)
+    assert np.all(shift < 0.5 * np.ptp(samples.truths[..., 0], axis=1))
