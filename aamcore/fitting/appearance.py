@@ -73,7 +73,8 @@ class AppearanceSampler:
         self._shape_mean = mean[:n_s]
         self._offset = -mean[n_s:] @ components[n_s:]
         self._weight = combined.weight
-        self._texture_basis_t = np.ascontiguousarray(aam.texture_basis.T, np.float32)
+        # the residual's own basis, transposed: one copy in the cache for both products
+        self._texture_basis_t = self.residual.texture_basis.T
 
     def project(self, prepared: np.ndarray, points: np.ndarray) -> Projection:
         """The appearance at landmarks ``points`` (N, 2) of an image prepared for the AAM
