@@ -6,9 +6,8 @@ fern stages (:mod:`~aamcore.fitting.algorithm.ferns`). From the previous
 frame's landmarks (tracking) it goes through the fern stages alone and, where
 the cascade has restart stages, also afresh as dlib's tracker does: the mean
 shape placed by a similarity on those landmarks, through the restart stages and
-then the fern stages; the mean of the two fits is the frame's, with the better
-of their quality scores, so a tracked face keeps no error the expression left on
-the last frame. Every step is
+then the fern stages; the mean of the two fits is the frame's, so a tracked
+face keeps no error the expression left on the last frame. Every step is
 taken in the basis of :class:`~aamcore.fitting.shape_space.ShapeSpace` and the
 shape projected onto the shape model (3 sd) after each coarse stage and after
 the last fern stage. One more fern stage regresses the fit's ``log(NME)`` (its
@@ -151,8 +150,7 @@ class LocalBinary:
     def track_points(self, image: np.ndarray, previous: np.ndarray) -> LandmarkFit:
         """Fit from landmarks (N, 2) of the previous frame: the fern stages from them and,
         where the cascade has restart stages, the mean of that fit and the one afresh from
-        the mean shape placed on them (:meth:`restart`), with the better quality score of
-        the two."""
+        the mean shape placed on them (:meth:`restart`), scored at the mean."""
         previous = np.asarray(previous, np.float64)
         if not np.all(np.isfinite(previous)):
             return self._failed(previous, "non-finite start shape")
@@ -166,14 +164,12 @@ class LocalBinary:
         tracked = self._fern_shape(region, previous - region.origin, seconds)
         restarted = self._restart_shape(region, previous, seconds)
         # two fits of one frame whose errors are little correlated: their mean is steadier
-        # and closer than either, or than the better-scored one; scored as the better of
-        # the two, which passes more frames that are within 0.08 than the score at the
-        # mean does (bench_tracking.py, bench_smoothing.py)
-        (score, contrast), (other, spread) = (self._score(region, tracked),
-                                              self._score(region, restarted))
+        # and closer than either, or than the better-scored one (bench_tracking.py,
+        # bench_smoothing.py); scored where it lies, so that a fit half on a lost branch is
+        # not passed on the other's score
         current = 0.5 * (tracked + restarted)
-        return self._result(current + region.origin, seconds, min(score, other),
-                            min(contrast, spread))
+        score, contrast = self._score(region, current)
+        return self._result(current + region.origin, seconds, score, contrast)
 
     def restart(self, image: np.ndarray, previous: np.ndarray) -> LandmarkFit:
         """Fit afresh from the mean shape placed on landmarks ``previous`` (N, 2): the restart
