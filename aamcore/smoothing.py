@@ -89,10 +89,12 @@ class OneEuroFilter:
         return self._x.copy()
 
 
-LANDMARKS = OneEuroSettings(min_cutoff=0.5, beta=40.0, d_cutoff=3.0)
-"""Landmark settings: speed in face sizes per second. Chosen on ``bench/bench_smoothing.py``:
-a still face's jitter -62 %, a face moving 12-15 px a frame within 3.5 % of the unsmoothed
-NME (beta 4 with a 1 Hz speed filter lagged: +50 to +73 %)."""
+LANDMARKS = OneEuroSettings(min_cutoff=0.5, beta=60.0, d_cutoff=3.0)
+"""Landmark settings: speed in face sizes per second. Chosen on ``bench/bench_smoothing.py``
+with the tracker that averages a tracked and a restarted fit (recipe fitting v12): a still
+face's jitter -58 %, a face moving 12-15 px a frame within 2.7 % of the unsmoothed NME
+(beta 40: -65 % and up to +4.7 %, beta 80: -53 % and +2.0 %; beta 4 with a 1 Hz speed
+filter lagged: +50 to +73 %)."""
 POSE = OneEuroSettings(min_cutoff=0.5, beta=40.0, d_cutoff=3.0)
 """Pose settings: rotation entries per second, translation in head sizes per second."""
 HEAD_SIZE_MM = 150.0
