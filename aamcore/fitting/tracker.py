@@ -73,15 +73,14 @@ NEVER = Refit()
 """Track only."""
 DEFAULT_REFIT = Refit(failed=True)
 """The tracker's default: a refit from the mean face only where tracking fails, before a
-detection. The restart stages of the default cascade already fit every tracked frame
-afresh from the mean placed on the last landmarks (recipe fitting v11), so refits by
-count no longer pay: ``bench/bench_tracking.py --parts-only --per-set 4 --nonrigid 4``
-(recipe fitting v12) measured on the non-rigid sequences mean NME 0.0523 tracking alone,
-0.0524 with a refit every sixth frame, 0.0523 with this default, at 2.22, 2.99 and 2.19 ms
-a frame on average; on the rigid ones 0.0565, 0.0572 and 0.0571 with 87.5 %, 87.7 % and
-87.9 % of the frames outside the occluder fitted well, at 3.31, 4.00 and 3.22 ms. Before
-the restart stages a refit every sixth frame took the non-rigid sequences from 0.0644 to
-0.0506."""
+detection. The default cascade's tracking already averages a fit from the last landmarks
+with one afresh from the mean placed on them (the restart stages), so refits by count buy
+little: ``bench/bench_tracking.py --parts-only --per-set 4 --nonrigid 4`` (recipe fitting
+v12) measured on the non-rigid sequences mean NME 0.0486 tracking alone, 0.0487 with this
+default, 0.0479 with a refit every sixth frame, at 2.19, 2.20 and 3.10 ms a frame on
+average; on the rigid ones 0.0518, 0.0513 and 0.0506 with 84.1 %, 83.8 % and 83.5 % of the
+frames outside the occluder fitted well, at 3.83, 3.90 and 4.67 ms. Before the restart
+stages a refit every sixth frame took the non-rigid sequences from 0.0644 to 0.0506."""
 
 
 class FaceDetector(Protocol):
