@@ -79,7 +79,8 @@ def print_summary(header: dict[str, Any], path: Path) -> None:
         binary = extra.get("binary")
         print(f"  fitting part: {len(extra.get('updates', []))} update matrices, descent "
               f"cascade {'yes' if extra.get('cascade') else 'no'}, local-binary cascade "
-              + (f"{binary['coarse']} coarse + {binary['tracking']} fern stages, failure "
+              + (f"{binary['coarse']} coarse + {binary['tracking']} fern stages + "
+                 f"{binary.get('restart', 0)} restart stages, failure "
                  f"threshold {binary['threshold']:.2f}, trained on "
                  f"{binary.get('report', {}).get('faces')} faces"
                  if binary else "no"))
