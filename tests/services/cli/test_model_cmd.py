@@ -21,6 +21,7 @@ def test_show_prints_modes_and_training_facts(model_path: Path, capsys) -> None:
     out = capsys.readouterr().out
     assert "scheme ibug68 (68 points)" in out
     assert "trained on" in out
+    assert "fern stages + " in out and "restart stages" in out
 
 
 def test_show_of_a_missing_file_is_a_clear_error(tmp_path: Path, capsys) -> None:
