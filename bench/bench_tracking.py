@@ -46,8 +46,9 @@ with an occluder.
 The schemes of ``--schemes`` are then compared per facial part (all, jaw, brows, nose,
 eyes, mouth: NME mean/p95 of the good fits outside the occluder) on the rigid and the
 non-rigid sequences, each frame timed through the :class:`~aamcore.fitting.tracker.Tracker`
-(or the fitter) alone: ``track`` (the default tracker), ``refit:...`` (the tracker with
-refits from the mean face, :class:`~aamcore.fitting.tracker.Refit`), and the floors
+(or the fitter) alone: ``track`` (tracking alone), ``refit:...`` (the tracker with
+refits from the mean face, :class:`~aamcore.fitting.tracker.Refit`; ``refit:failed=1`` is
+the default, :data:`~aamcore.fitting.tracker.DEFAULT_REFIT`), and the floors
 ``truth`` (every frame fitted from the mean face placed on that frame's true landmarks),
 ``previous`` (placed on the previous frame's fit), either ``+track`` (one tracking step
 after). ``--parts-only`` skips the library table.
@@ -93,7 +94,7 @@ from tracking_parts import Pool, parse_scheme, pool_row, run_scheme  # noqa: E40
 from tracking_scores import REACQUIRED_NME, Score, Track, pooled, score, track_of  # noqa: E402
 
 TARGET_GOOD, TARGET_NME, TARGET_REACQUIRE = 0.98, 0.035, 5
-SCHEMES = ("track", "refit:every=8,score=-3.3,failed=1", "previous", "truth", "truth+track")
+SCHEMES = ("track", "refit:failed=1", "refit:every=6", "previous", "truth")
 """The schemes compared per part by default."""
 
 
