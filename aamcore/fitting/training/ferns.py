@@ -208,8 +208,8 @@ def grow_ferns(
 
 
 def stage_solves(leaves: np.ndarray, n_features: int, targets: np.ndarray,
-            folds: np.ndarray | None, config: FernConfig, n_jobs: int
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 folds: np.ndarray | None, config: FernConfig, n_jobs: int
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The stage's weights (D, Q) and bias (Q,) from all samples, and each sample's step
     (S, Q): where ``folds`` is set, by a regression learned without the sample's fold, so
     that the next stage learns from residuals as large as unseen faces leave. The solves
