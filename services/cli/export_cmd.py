@@ -17,21 +17,21 @@ import argparse
 import sys
 from pathlib import Path
 
+from services.cli.commands import add_command
+
 MAX_FACES = 32
 """The most faces ``aamtrack track --max-faces`` takes."""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``export`` and ``track``."""
-    p = subparsers.add_parser("export", help="a recording's per-frame results as CSV, JSON "
-                              "Lines or a Rerun recording",
-                              description="Write one row per frame of RECORDING.")
+    p = add_command(subparsers, "export",
+                    description="Write one row per frame of RECORDING.")
     p.add_argument("recording", type=Path, help="a .rec file of aamtrack run --record")
     _outputs(p)
     p.add_argument("--rrd", type=Path, help="replay it into this Rerun recording")
     p.set_defaults(func=cmd_export)
-    p = subparsers.add_parser("track", help="track a video without the bus and write its "
-                              "per-frame results", description="Run the Python API's "
+    p = add_command(subparsers, "track", description="Run the Python API's "
                               "FaceTracker on VIDEO.")
     p.add_argument("video", type=Path)
     _outputs(p)
