@@ -166,13 +166,15 @@ class Meter:
         if self._bar is not None:
             self._bar.refresh()
 
-    def close(self) -> None:
+    def close(self, finished: bool = True) -> None:
+        """End the display; the last line only when the work ``finished`` (not when it was
+        interrupted)."""
         if self.shown == "off":
             return
         _Ticker.release(self)
         if self._bar is not None:
             self._bar.close()
-        if self.summary and self.shown == "lines":
+        if finished and self.summary and self.shown == "lines":
             spent = time.monotonic() - self.started
             note(f"{self.desc}: done, {_count(self.done, self.unit)} in {duration(spent)} "
                  f"({_rate(self.done, spent, self.unit)})")
@@ -198,12 +200,14 @@ def progress(items: Iterable[T], desc: str, total: int | None = None, unit: str 
     if total is None and hasattr(items, "__len__"):
         total = len(items)  # type: ignore[arg-type]
     meter = Meter(desc, total, unit, summary)
+    finished = False
     try:
         for done, item in enumerate(items, 1):
             yield item
             meter.update(done)
+        finished = True
     finally:
-        meter.close()
+        meter.close(finished)
 
 
 def bar(desc: str) -> Callable[[Iterable[T]], Iterator[T]]:
@@ -223,13 +227,16 @@ def plan(title: str, phases: Sequence[tuple[str, float]]) -> Iterator[Plan | Non
     note(f"{title}: {len(phases)} phases, about {duration(_Ticker.plan.left())} on a quiet "
          "two-core machine")
     _Ticker.hold(None)
+    finished = False
     try:
         yield _Ticker.plan
+        finished = True
     finally:
         _Ticker.release(None)
         spent = time.monotonic() - _Ticker.plan.started
         _Ticker.plan = None
-        note(f"{title}: done in {duration(spent)}")
+        if finished:
+            note(f"{title}: done in {duration(spent)}")
 
 
 @contextmanager
@@ -241,7 +248,7 @@ def phase(name: str) -> Iterator[None]:
         yield
     finally:
         if meter is not None:
-            meter.close()
+            meter.close(finished=False)
 
 
 class _Ticker:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import signal
 import sys
 from collections.abc import Sequence
@@ -58,6 +59,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     command = command_in(argv)
+    # FFmpeg's own lines (a file that is no video: "moov atom not found") would come before
+    # aamtrack's message that says the same; set it to 16 or more to see them.
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
     try:
         return _main(argv, command)
     except KeyboardInterrupt:

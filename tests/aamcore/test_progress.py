@@ -84,3 +84,13 @@ def test_progress_can_be_turned_off(capsys: pytest.CaptureFixture[str],
     with progress.plan("y", (("x", 1.0),)):
         list(progress.progress(iter(range(3)), "x"))
     assert capsys.readouterr().err == "" and not progress.enabled()
+
+
+def test_interrupted_work_is_not_said_to_be_done(capsys: pytest.CaptureFixture[str]) -> None:
+    def interrupted():
+        yield 1
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt), progress.plan("training", (("stages", 1.0),)):
+        list(progress.bar("stages")(interrupted()))
+    assert not [line for line in capsys.readouterr().err.splitlines() if "done" in line]
