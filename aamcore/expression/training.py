@@ -60,7 +60,7 @@ RBF SVM of raw ``c``; 4 was the research branch's; 5: the face-feature pipeline;
 by algorithm and feature set, the thesis's LDA + Mahalanobis on ``c``; 7: the
 person-independent model beside the relative one, temperatures fitted on held-out posers;
 8: the temperatures fitted on ten folds of one poser)."""
-CLASSIFIER_PHASES = (("fitting JAFFE", 15.0), ("classifier", 30.0))
+CLASSIFIER_PHASES = (("fitting JAFFE", 5.0), ("classifier", 6.0))
 """The phases of training a classifier with their seconds on a quiet two-core machine
 (:func:`aamcore.progress.plan`)."""
 FEATURE_SETS: dict[str, str] = {
