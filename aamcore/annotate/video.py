@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
+
+if TYPE_CHECKING:
+    from aamcore.face_result import FaceResult
 
 CODECS = {".mp4": "mp4v", ".avi": "MJPG"}
 """The video files an annotated video can be, by suffix, and their codec (OpenCV's wheel
@@ -57,3 +62,58 @@ class VideoWriter:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+class AnnotatedVideo:
+    """Frames with their results drawn on them (:class:`~aamcore.annotate.Annotator`), written
+    to ``path`` by a thread of its own, so that drawing and encoding a frame overlap with
+    tracking the next (OpenCV and the GL driver work outside the GIL).
+
+    ``put(frame, faces, K)`` queues a frame (waiting while ``backlog`` frames are queued);
+    ``close()`` writes the rest and returns the frames written. An error of the thread (a file
+    OpenCV cannot write) is raised by the next ``put`` or by ``close``.
+    """
+
+    def __init__(self, path: str | Path, fps: float, glasses: bool = True,
+                 backlog: int = 8) -> None:
+        import queue
+        import threading
+
+        self.writer = VideoWriter(path, fps)
+        self.glasses = glasses
+        self.glasses_problem = ""
+        self._queue: queue.Queue = queue.Queue(backlog)
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name="annotate", daemon=True)
+        self._thread.start()
+
+    def put(self, frame: np.ndarray, faces: Sequence[FaceResult], K: np.ndarray | None
+            ) -> None:
+        self._raise()
+        self._queue.put((frame, faces, K))
+
+    def close(self) -> int:
+        """Write what is queued, close the file; the frames written."""
+        if self._thread.is_alive():
+            self._queue.put(None)
+            self._thread.join()
+        self._raise()
+        return self.writer.frames
+
+    def _raise(self) -> None:
+        if self._error is not None:
+            error, self._error = self._error, None
+            raise error
+
+    def _run(self) -> None:
+        from aamcore.annotate.annotator import Annotator
+
+        with Annotator(self.glasses) as annotator, self.writer:  # GL: this thread's context
+            while (item := self._queue.get()) is not None:
+                if self._error is not None:
+                    continue  # drain: the producer hears of the error at its next put
+                try:
+                    self.writer.write(annotator.draw(*item))
+                except Exception as exc:  # handed to the producer
+                    self._error = exc
+                self.glasses_problem = annotator.glasses_problem

@@ -83,7 +83,7 @@ def export_annotated(messages: list, results: list, video: Path, out: Path, fram
     written and why the glasses are not drawn ("" when they are)."""
     import cv2
 
-    from aamcore.annotate import Annotator, VideoWriter
+    from aamcore.annotate import AnnotatedVideo
     from aamcore.io.video import video_facts
 
     by_frame: dict[int, list] = defaultdict(list)
@@ -92,14 +92,14 @@ def export_annotated(messages: list, results: list, video: Path, out: Path, fram
     pose = next((m for m in messages if m.KIND == "pose"), None)
     K = None if pose is None else pose.intrinsics
     capture = cv2.VideoCapture(str(video))
-    fps = video_facts(video)[1]
-    with Annotator() as annotator, VideoWriter(out, fps) as writer:
-        try:
-            for index in shown(range(frames), f"annotating {video.name}", frames):
-                ok, frame = capture.read()
-                if not ok:
-                    break
-                writer.write(annotator.draw(frame, by_frame.get(index, []), K))
-        finally:
-            capture.release()
-    return writer.frames, annotator.glasses_problem
+    annotated = AnnotatedVideo(out, video_facts(video)[1])
+    try:
+        for index in shown(range(frames), f"annotating {video.name}", frames):
+            ok, frame = capture.read()
+            if not ok:
+                break
+            annotated.put(frame, by_frame.get(index, []), K)
+    finally:
+        capture.release()
+        written = annotated.close()
+    return written, annotated.glasses_problem

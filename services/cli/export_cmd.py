@@ -191,12 +191,11 @@ def cmd_track(args: argparse.Namespace) -> int:
 def track_video(tracker: Any, args: argparse.Namespace, expected: int) -> tuple[str, str]:
     """Track ``args.video``, writing the rows and the annotated video asked for; what was
     done (one line) and why the glasses are not drawn ("" when they are)."""
-    from aamcore.annotate import Annotator, VideoWriter
+    from aamcore.annotate import AnnotatedVideo
     from aamcore.io.video import video_facts
 
     writers = _writers(args, tracker.model.aam.scheme.n_points, tracker.class_names)
-    annotator = Annotator() if args.annotate else None
-    video = VideoWriter(args.annotate, video_facts(args.video)[1]) if args.annotate else None
+    video = AnnotatedVideo(args.annotate, video_facts(args.video)[1]) if args.annotate else None
     started, rows, K = time.perf_counter(), 0, None
     try:
         for frame, faces in shown(tracker.process_video_frames(args.video),
@@ -208,13 +207,14 @@ def track_video(tracker: Any, args: argparse.Namespace, expected: int) -> tuple[
             if video is not None:
                 if K is None:
                     K = tracker.camera_matrix(frame.shape[1], frame.shape[0])
-                video.write(annotator.draw(frame, faces, K))  # type: ignore[union-attr]
+                video.put(frame, faces, K)
     finally:
-        for closing in (*writers, video, annotator):
-            if closing is not None:
-                closing.close()
+        for writer in writers:
+            writer.close()
+        if video is not None:
+            video.close()
     spent = time.perf_counter() - started
     said = (f"tracked {tracker.frames} frames of {args.video} in {spent:.1f} s "
             f"({tracker.frames / max(spent, 1e-9):.1f} frames/s): {rows} rows"
             + (f", annotated video {args.annotate}" if video is not None else ""))
-    return said, annotator.glasses_problem if annotator is not None else ""
+    return said, video.glasses_problem if video is not None else ""

@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 import pytest
 
-from aamcore.annotate import Annotator, VideoWriter, video_output_problem
+from aamcore.annotate import AnnotatedVideo, Annotator, VideoWriter, video_output_problem
 from aamcore.annotate.draw import face_lines
 from aamcore.annotate.palette import OCCLUDED_COLOUR, PART_COLOURS, point_groups
 from aamcore.ar.projection import project_points
@@ -122,3 +122,25 @@ def test_the_video_is_written_and_read_back(tmp_path: Path, frame: np.ndarray) -
     with pytest.raises(OSError, match="cannot write"), \
             VideoWriter(tmp_path / "missing" / "a.mp4", 30.0) as writer:
         writer.write(frame)
+
+
+def test_the_annotating_thread_writes_every_frame_in_order_and_hands_on_its_errors(
+    tmp_path: Path, frame: np.ndarray, face: FaceResult
+) -> None:
+    """Frame k gets k + 1 faces' worth of drawing: the frames read back darken in order."""
+    video = AnnotatedVideo(tmp_path / "a.avi", 30.0, glasses=False, backlog=2)
+    for k in range(6):
+        video.put(frame, [face] * (k % 2) + [replace(face, face_id=-1, landmarks=np.zeros(
+            (0, 2)), reason="no face")] * (1 - k % 2), K)
+    assert video.close() == 6 and not video.glasses_problem
+    capture, labelled = cv2.VideoCapture(str(tmp_path / "a.avi")), []
+    while (got := capture.read())[0]:
+        corner = got[1][:30, :100].astype(int) - frame[:30, :100]
+        labelled.append(bool(np.abs(corner).max() > 80))  # "no face" at the top left
+    assert labelled == [True, False] * 3
+    broken = AnnotatedVideo(tmp_path / "missing" / "a.mp4", 30.0, glasses=False)
+    broken.put(frame, [], None)
+    with pytest.raises(OSError, match="cannot write"):
+        for _ in range(20):
+            broken.put(frame, [], None)
+        broken.close()
