@@ -11,6 +11,8 @@ ALGORITHM = "local-binary"
 """The fitting algorithm: landmark-HOG and fern stages in a shape space, the most accurate
 on in-the-wild faces and the fastest to track (``bench/bench_fit_lfpw.py``,
 ``bench/bench_fit_speed.py``)."""
+FAILURE_TESTS = ("auto", "chi2", "eq7.2", "quality")
+"""The failure tests a fitter can be given (:mod:`aamcore.fitting.failure`)."""
 FAILURE_TEST = "auto"
 """How a failed fit is recognised: ``auto`` is the learned quality score for
 ``local-binary`` and ``chi2`` on the appearance for the AAM methods (see
@@ -45,6 +47,10 @@ POSE_ESTIMATORS = ("contour", "posit", "contour+calib")
 matches the jaw landmarks to the outline seen (:class:`aamcore.pose.robust.ContourPose`),
 ``posit`` is the thesis's POSIT without the jaw, ``contour+calib`` adapts the head model
 to the person (:class:`aamcore.pose.calibrate.OnlineCalibration`)."""
+EXPRESSION_HOLD = 3
+"""Classified frames a new expression label leads before the stack shows it (100 ms at
+30 fps): a label that flickers for a frame or two is not shown
+(:class:`aamcore.expression.recogniser.ExpressionRecogniser`'s ``hold``)."""
 POSE_ESTIMATOR = "contour"
 """The head-pose estimator of the stack and the library: it holds to +-60 degrees of yaw
 where POSIT's jaw points mislead it (``bench/bench_pose_yaw.py``)."""

@@ -167,6 +167,10 @@ class FaceTracker:
         """The head-pose estimator's method (:data:`aamcore.defaults.POSE_ESTIMATORS`)."""
         return self._method
 
+    def camera_matrix(self, width: int, height: int) -> np.ndarray:
+        """The camera matrix ``K`` (3, 3) the poses of ``width`` x ``height`` frames use."""
+        return self._cameras.at(width, height).K
+
     @property
     def class_names(self) -> tuple[str, ...]:
         """The expression classes (none without a classifier)."""
@@ -269,6 +273,12 @@ class FaceTracker:
         OSError
             When the file cannot be opened (raised at the first ``next``).
         """
+        for _, faces in self.process_video_frames(path):
+            yield faces
+
+    def process_video_frames(self, path: str | Path
+                             ) -> Iterator[tuple[np.ndarray, list[FaceResult]]]:
+        """Every frame of a video file with its results (:meth:`process_video_faces`)."""
         import cv2
 
         capture = cv2.VideoCapture(str(path))
@@ -282,7 +292,7 @@ class FaceTracker:
                 ok, frame = capture.read()
                 if not ok:
                     return
-                yield self.process_faces(frame, self.frames / fps)
+                yield frame, self.process_faces(frame, self.frames / fps)
         finally:
             capture.release()
 

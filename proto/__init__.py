@@ -9,22 +9,33 @@
 The package knows the bus (keys, ``zenoh_config``) but nothing of the algorithms.
 """
 
-from proto.codec import decode, encode
-from proto.header import SCHEMA_VERSION, Header
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from proto.limits import ProtoError
-from proto.messages import (
-    MESSAGE_TYPES,
-    EndOfStream,
-    Expression,
-    FaceBoxes,
-    Fit,
-    FitAppearance,
-    Frame,
-    HeadPose,
-    Message,
-    Overlay,
-    Status,
-)
+
+if TYPE_CHECKING:
+    from proto.codec import decode, encode
+    from proto.header import SCHEMA_VERSION, Header
+    from proto.messages import (
+        MESSAGE_TYPES,
+        EndOfStream,
+        Expression,
+        FaceBoxes,
+        Fit,
+        FitAppearance,
+        Frame,
+        HeadPose,
+        Message,
+        Overlay,
+        Status,
+    )
+
+_HOME = {"decode": "codec", "encode": "codec", "SCHEMA_VERSION": "header", "Header": "header"}
+"""Where each name lives (the messages' module for the others): loaded on first use, so that
+``import proto.keys`` (the command line's options) imports neither numpy nor msgpack."""
 
 __all__ = [
     "MESSAGE_TYPES",
@@ -44,3 +55,11 @@ __all__ = [
     "decode",
     "encode",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name not in __all__:
+        raise AttributeError(f"module 'proto' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"proto.{_HOME.get(name, 'messages')}"), name)
+    globals()[name] = value
+    return value

@@ -12,8 +12,10 @@ import json
 import re
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import zenoh
+if TYPE_CHECKING:  # imported where a configuration is built, not by the options that name one
+    import zenoh
 
 MODES = ("peer", "client", "router")
 DROP_WAIT_US = {"wait_before_drop": 30_000, "max_wait_before_drop_fragments": 200_000}
@@ -53,6 +55,8 @@ def zenoh_config(
     for endpoint in (*listen, *connect):
         if not isinstance(endpoint, str) or _ENDPOINT.fullmatch(endpoint) is None:
             raise ValueError(f"zenoh endpoint {endpoint!r} is not like 'tcp/127.0.0.1:7447'")
+    import zenoh
+
     config = zenoh.Config()
     config.insert_json5("mode", json.dumps(mode))
     config.insert_json5("listen/endpoints", json.dumps(list(listen)))
@@ -100,6 +104,8 @@ def config_from_file(
     for endpoint in (*listen, *connect):
         if not isinstance(endpoint, str) or _ENDPOINT.fullmatch(endpoint) is None:
             raise ValueError(f"zenoh endpoint {endpoint!r} is not like 'tcp/127.0.0.1:7447'")
+    import zenoh
+
     try:
         config = zenoh.Config.from_file(str(path))
     except zenoh.ZError as exc:

@@ -80,7 +80,7 @@ LAYERS = (
     ("ar", "synth"),
     ("evaluation",),
     ("profiles",),
-    ("tracker", "results", "face_result"),
+    ("tracker", "results", "face_result", "annotate"),
 )
 """The stages of aamcore from the bottom up, as ARCHITECTURE.md draws them: a module may
 import its own stage and those below, never one above."""

@@ -52,7 +52,7 @@ from aamcore.fitting.result import appearance_of
 from aamcore.fitting.tracker import Tracker
 from aamcore.io.jaffe import load_jaffe
 from aamcore.io.sample import DatasetError
-from aamcore.progress import note, progress
+from aamcore.progress import note, phase, plan, progress
 
 TRAINING_VERSION = 8
 """Bump when the training below changes, so that cached classifiers are retrained (3: the
@@ -60,6 +60,9 @@ RBF SVM of raw ``c``; 4 was the research branch's; 5: the face-feature pipeline;
 by algorithm and feature set, the thesis's LDA + Mahalanobis on ``c``; 7: the
 person-independent model beside the relative one, temperatures fitted on held-out posers;
 8: the temperatures fitted on ten folds of one poser)."""
+CLASSIFIER_PHASES = (("fitting JAFFE", 5.0), ("classifier", 6.0))
+"""The phases of training a classifier with their seconds on a quiet two-core machine
+(:func:`aamcore.progress.plan`)."""
 FEATURE_SETS: dict[str, str] = {
     "deployed": DEPLOYED.name,
     "thesis": "c, absolute, LDA+Mahalanobis (thesis)",
@@ -315,11 +318,12 @@ def train_classifier(model_path: str | Path, folder: str | Path | None = None,
             "failure_test": config.failure_test,
             "fit_failed": int(faces.fit_failed.sum()), "no_face": int(faces.no_face.sum())}
     fingerprint = model_fingerprint(model_path)
-    if features == "thesis":
-        estimator, spec, n, temperature = train_thesis(faces, n_appearance)
-        return ExpressionClassifier.from_estimator(estimator, fingerprint, spec,
-                                                   info | {"samples": n}, temperature)
-    return train_deployed(faces, n_appearance).classifier(fingerprint, info)
+    with phase("classifier"):
+        if features == "thesis":
+            estimator, spec, n, temperature = train_thesis(faces, n_appearance)
+            return ExpressionClassifier.from_estimator(estimator, fingerprint, spec,
+                                                       info | {"samples": n}, temperature)
+        return train_deployed(faces, n_appearance).classifier(fingerprint, info)
 
 
 def check_made_for(classifier: ExpressionClassifier, fingerprint: str, algorithm: str) -> None:
@@ -361,7 +365,8 @@ def classifier_path(model_path: str | Path, algorithm: str = FITTER.algorithm,
              f"{path.parent}")
         path.parent.mkdir(parents=True, exist_ok=True)
         try:
-            classifier = train_classifier(model_path, algorithm=algorithm, features=features)
+            with plan("training the expression classifier", CLASSIFIER_PHASES):
+                classifier = train_classifier(model_path, algorithm=algorithm, features=features)
         except ValueError as exc:  # no classifiable face: nothing to train on
             raise DatasetError(f"no expression classifier for {model_path}: {exc}") from exc
         tmp = path.with_name(f"{path.stem}.tmp{os.getpid()}.npz")

@@ -18,6 +18,19 @@ def frame_rate(capture: cv2.VideoCapture) -> float:
     return fps if 1.0 <= fps <= 1000.0 else FALLBACK_FPS
 
 
+def video_facts(path: str | Path) -> tuple[int, float, tuple[int, int]]:
+    """What a video file's container states: its frames (0 when it does not say; the frames
+    read may be a few fewer), its frame rate (:func:`frame_rate`) and its size (width,
+    height)."""
+    capture = cv2.VideoCapture(str(path))
+    try:
+        return (max(int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0), 0), frame_rate(capture),
+                (int(capture.get(cv2.CAP_PROP_FRAME_WIDTH)),
+                 int(capture.get(cv2.CAP_PROP_FRAME_HEIGHT))))
+    finally:
+        capture.release()
+
+
 def video_frames(path: str | Path) -> list[np.ndarray]:
     """Every frame of a video file, BGR.
 

@@ -7,7 +7,6 @@ from dataclasses import dataclass
 from typing import Any
 
 from proto import ProtoError
-from proto.header import check_run_id
 from proto.keys import check_name
 from proto.zenoh_config import MODES, config_from_file, zenoh_config
 from services.bus.options import OptionError, Options, option
@@ -26,6 +25,12 @@ def _problem_of(check: Callable[[str], str]) -> Callable[[str], str]:
         return ""
 
     return problem
+
+
+def _check_run_id(value: str) -> None:
+    from proto.header import check_run_id  # the header's module imports numpy: not for help
+
+    check_run_id(value)
 
 
 @dataclass(frozen=True)
@@ -58,7 +63,7 @@ class BusOptions(Options):
                                "endpoints given override it", metavar="FILE",
                                env="AAMTRACK_ZENOH_CONFIG")
     run_id: str = option("", "accept only messages of this run (set by the launcher)",
-                         metavar="RUN", env="AAMTRACK_RUN_ID", check=_problem_of(check_run_id))
+                         metavar="RUN", env="AAMTRACK_RUN_ID", check=_problem_of(_check_run_id))
 
     def config(self) -> Any:
         """The ``zenoh.Config``: from ``zenoh_config`` when given, else multicast

@@ -1,47 +1,79 @@
 """The ``aamtrack`` command.
 
 Each command group lives in its own module with a ``register(subparsers)``
-function that adds its sub-command(s) and sets ``func`` on the parser; this
-module only gathers them. To add a command, write a module and list it in
-``COMMAND_MODULES``.
+function that adds its sub-command(s) and sets ``func`` on the parser;
+:data:`services.cli.commands.COMMANDS` lists every command with its help and
+modules. ``aamtrack CMD ...`` imports only the modules of ``CMD``, and those
+import the algorithms only when a command runs, so that help comes at once. To add
+a command, write a module and list it in ``COMMANDS``.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
-import logging
+import os
+import signal
 import sys
+from collections.abc import Sequence
 
-COMMAND_MODULES: tuple[str, ...] = (
-    "services.cli.train_cmd",
-    "services.cli.model_cmd",
-    "services.cli.fit_cmd",
-    "services.cli.pose_cmd",
-    "services.cli.expression_cmd",
-    "services.cli.run_cmd",
-    "services.cli.bus_cmd",
-    "services.cli.export_cmd",
-    "services.cli.router_cmd",
-)
+from services.cli.commands import COMMANDS, canonical
+
+EXIT_INTERRUPTED = 130
+"""The exit code of a command stopped by Ctrl-C (128 + SIGINT), as shells give it."""
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Return the parser with every command group registered."""
+def _parser(modules: Sequence[str]) -> tuple[argparse.ArgumentParser, argparse._SubParsersAction]:
     parser = argparse.ArgumentParser(
         prog="aamtrack", description="Real-time face tracking with Active Appearance Models."
     )
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name in COMMAND_MODULES:
+    for name in dict.fromkeys(modules):
         importlib.import_module(name).register(sub)
+    return parser, sub
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every command; with ``command``, of that one only (the others listed
+    by name and help, their modules not imported)."""
+    if command is None:
+        return _parser([m for c in COMMANDS.values() for m in c.modules])[0]
+    chosen = canonical(command)
+    parser, sub = _parser(COMMANDS[chosen].modules if chosen else ())
+    for name, listed in COMMANDS.items():
+        if name not in sub.choices:
+            sub.add_parser(name, help=listed.help, aliases=list(listed.aliases))
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``aamtrack`` console command; returns the exit code."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+def command_in(argv: Sequence[str]) -> str:
+    """The command word of ``argv`` (its first word that is not an option), or ``""``."""
+    return next((word for word in argv if not word.startswith("-")), "")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``aamtrack`` console command; returns the exit code.
+
+    Ctrl-C at any moment, importing included, ends it with one line and exit code 130.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    command = command_in(argv)
+    # FFmpeg's own lines (a file that is no video: "moov atom not found") would come before
+    # aamtrack's message that says the same; set it to 16 or more to see them.
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
+    try:
+        return _main(argv, command)
+    except KeyboardInterrupt:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C while it stops
+        print(f"aamtrack{' ' + command if command else ''}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def _main(argv: list[str], command: str) -> int:
+    import logging
+
+    args = build_parser(command).parse_args(argv)
     logging.basicConfig(
         level=logging.DEBUG if args.verbose else logging.INFO,
         format="%(asctime)s %(name)s %(levelname)s %(message)s",
@@ -51,9 +83,6 @@ def main(argv: list[str] | None = None) -> int:
     except (FileNotFoundError, ValueError) as exc:
         print(f"aamtrack {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"aamtrack {args.command}: interrupted", file=sys.stderr)
-        return 130
 
 
 if __name__ == "__main__":

@@ -18,16 +18,17 @@ import sys
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from proto import Message
 from proto.keys import TOPICS, status_wildcard, topic_key
 from services.bus.connection import BusOptions
 from services.bus.options import OptionError, add_options, options_from
-from services.bus.process import init_process
-from services.bus.session import Service
-from services.stack.drain import DRAIN_MAX, DRAIN_QUIET, EndOfRun
-from services.stack.recorder import IMAGE_KINDS, RESULT_KINDS, RecordWriter
+from services.cli.commands import add_command
+from services.stack.drain import DRAIN_MAX, DRAIN_QUIET
+
+if TYPE_CHECKING:  # the bus and the codec are imported when a command runs, not for its help
+    from proto import Message
+    from services.bus.session import Service
 
 DEFAULT_TIMEOUT = 10.0
 """Seconds to wait for a stack before giving up."""
@@ -35,13 +36,13 @@ DEFAULT_TIMEOUT = 10.0
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``echo`` and ``record``."""
-    p = subparsers.add_parser("echo", help="print the messages on a key expression",
+    p = add_command(subparsers, "echo",
                               description="Subscribe to KEYEXPR and print one line per message.")
     p.add_argument("keyexpr", help="e.g. aamtrack/cam0/** or aamtrack/*/pose")
     p.add_argument("--count", type=int, default=0, help="stop after N messages")
     _common(p)
     p.set_defaults(func=cmd_echo)
-    p = subparsers.add_parser("record", help="record a stream's result messages to a file",
+    p = add_command(subparsers, "record",
                               description="Write every fit, pose, expression, boxes, status "
                               "and end-of-stream message to FILE (services.stack.recorder).")
     p.add_argument("--out", required=True, help="recording file")
@@ -69,7 +70,9 @@ def _common(p: argparse.ArgumentParser) -> None:
 def _client(args: argparse.Namespace) -> Service | None:
     """The session of ``echo`` or ``record`` (not announced on the stack's stream): by
     default it connects where ``run`` listens; None, with a message, for bad options."""
+    from services.bus.process import init_process
     from services.bus.runtime import stream_endpoint
+    from services.bus.session import Service
 
     try:
         bus = options_from(BusOptions, args)
@@ -173,6 +176,8 @@ def cmd_echo(args: argparse.Namespace) -> int:
 
 def record_keys(stream: str, frames: bool, overlays: bool) -> list[str]:
     """Keys a recording of ``stream`` subscribes to."""
+    from services.stack.recorder import IMAGE_KINDS, RESULT_KINDS
+
     kinds = [k for k in RESULT_KINDS if k in TOPICS]
     kinds += [k for k, on in zip(IMAGE_KINDS, (frames, overlays), strict=True) if on]
     return [topic_key(stream, k) for k in kinds] + [status_wildcard(stream)]
@@ -180,7 +185,9 @@ def record_keys(stream: str, frames: bool, overlays: bool) -> list[str]:
 
 def cmd_record(args: argparse.Namespace) -> int:
     """``aamtrack record --out FILE``."""
+    from services.stack.drain import EndOfRun
     from services.stack.preflight import PreflightError, check_output
+    from services.stack.recorder import RecordWriter
 
     try:
         check_output("--out", args.out)

@@ -15,7 +15,17 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
+from typing import Any
+
+from services.cli.annotated import (
+    add_annotate,
+    annotate_problem,
+    shown,
+    video_problem,
+)
+from services.cli.commands import add_command
 
 MAX_FACES = 32
 """The most faces ``aamtrack track --max-faces`` takes."""
@@ -23,18 +33,18 @@ MAX_FACES = 32
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``export`` and ``track``."""
-    p = subparsers.add_parser("export", help="a recording's per-frame results as CSV, JSON "
-                              "Lines or a Rerun recording",
-                              description="Write one row per frame of RECORDING.")
+    p = add_command(subparsers, "export",
+                    description="Write one row per frame of RECORDING.")
     p.add_argument("recording", type=Path, help="a .rec file of aamtrack run --record")
     _outputs(p)
     p.add_argument("--rrd", type=Path, help="replay it into this Rerun recording")
+    add_annotate(p, export=True)
     p.set_defaults(func=cmd_export)
-    p = subparsers.add_parser("track", help="track a video without the bus and write its "
-                              "per-frame results", description="Run the Python API's "
+    p = add_command(subparsers, "track", description="Run the Python API's "
                               "FaceTracker on VIDEO.")
     p.add_argument("video", type=Path)
     _outputs(p)
+    add_annotate(p, export=False)
     p.add_argument("--model", help="fitting model file (default: the default model)")
     p.add_argument("--classifier", help="expression classifier file (default: none)")
     p.add_argument("--fov", type=float, help="assumed horizontal field of view, degrees")
@@ -62,7 +72,7 @@ def _check_outputs(args: argparse.Namespace) -> str:
     """The first problem with an output file asked for ("" when there is none)."""
     from services.stack.preflight import PreflightError, check_output
 
-    for option in ("csv", "jsonl", "rrd"):
+    for option in ("csv", "jsonl", "rrd", "annotate"):
         path = getattr(args, option, None)
         if path is not None:
             try:
@@ -79,26 +89,47 @@ def _fail(command: str, message: str, code: int) -> int:
 
 def cmd_export(args: argparse.Namespace) -> int:
     """``aamtrack export RUN.rec``."""
+    from aamcore.io.video import video_facts
+    from services.cli.annotated import export_annotated, recording_video_problem
     from services.stack.export import results_of
     from services.stack.recorder import RecordingError, read_recording
 
-    if args.csv is None and args.jsonl is None and args.rrd is None:
-        return _fail("export", "give --csv, --jsonl and/or --rrd", 2)
-    if problem := _check_outputs(args):
+    if not any((args.csv, args.jsonl, args.rrd, args.annotate)):
+        return _fail("export", "give --csv, --jsonl, --rrd and/or --annotate with --video", 2)
+    if problem := annotate_problem(args, export=True) or _check_outputs(args):
         return _fail("export", problem, 2)
+    if args.video is not None and (problem := video_problem(args.video)):
+        return _fail("export", f"--video {problem}", 2)
     try:
         recording = read_recording(args.recording)
     except (RecordingError, OSError) as exc:
         return _fail("export", str(exc), 2)
     exported = results_of(recording.messages)
+    frames = len({(r.frame_index) for r in exported.results})
+    if args.video is not None:
+        total = video_facts(args.video)[0]
+        if problem := recording_video_problem(args.recording, recording.messages, args.video,
+                                              total):
+            return _fail("export", problem, 2)
     writers = _writers(args, exported.n_points, exported.class_names)
-    for writer in writers:
-        with writer:
-            for result in exported.results:
-                writer.write(result)
+    try:
+        if writers:
+            for result in shown(exported.results, "writing rows", len(exported.results), "row"):
+                for writer in writers:
+                    writer.write(result)
+    finally:
+        for writer in writers:
+            writer.close()
     if args.rrd is not None:
         replay(recording.messages, args.rrd)
-    print(f"exported {len(exported.results)} frames of {args.recording}", file=sys.stderr)
+    said = f"exported {len(exported.results)} rows ({frames} frames) of {args.recording}"
+    if args.annotate is not None:
+        written, glasses = export_annotated(recording.messages, exported.results, args.video,
+                                            args.annotate, total)
+        said += f"; annotated video {args.annotate} ({written} frames)"
+        if glasses:
+            said += f"; {glasses}"
+    print(said, file=sys.stderr)
     if recording.stopped:
         return _fail("export", f"the recording is damaged; exported what came before: "
                      f"{recording.stopped}", 1)
@@ -115,7 +146,7 @@ def replay(messages: list, rrd: Path) -> None:
     recording = open_recording(rrd, None, build_blueprint())
     try:
         logger = StreamLogger(recording.stream, load_head_model())
-        for msg in messages:
+        for msg in shown(messages, f"replaying into {rrd.name}", len(messages), "message"):
             logger.log(msg)
     finally:
         recording.close()
@@ -123,16 +154,17 @@ def replay(messages: list, rrd: Path) -> None:
 
 def cmd_track(args: argparse.Namespace) -> int:
     """``aamtrack track VIDEO``."""
-    if args.csv is None and args.jsonl is None:
-        return _fail("track", "give --csv and/or --jsonl", 2)
-    if not args.video.is_file():
-        return _fail("track", f"{args.video}: no such file", 2)
-    if problem := _check_outputs(args):
+    if args.csv is None and args.jsonl is None and args.annotate is None:
+        return _fail("track", "give --csv, --jsonl and/or --annotate", 2)
+    if problem := annotate_problem(args, export=False) or _check_outputs(args):
         return _fail("track", problem, 2)
     if args.fov is not None and not 1.0 <= args.fov <= 179.0:
         return _fail("track", f"--fov {args.fov:g}: must be a number from 1 to 179", 2)
     if not 1 <= args.max_faces <= MAX_FACES:
         return _fail("track", f"--max-faces {args.max_faces}: must be 1 to {MAX_FACES}", 2)
+    if problem := video_problem(args.video):
+        return _fail("track", problem, 2)
+    from aamcore.io.video import video_facts
     from aamcore.model.file import ModelFileError
     from aamcore.tracker import FaceTracker
 
@@ -142,32 +174,47 @@ def cmd_track(args: argparse.Namespace) -> int:
                               max_faces=args.max_faces)
     except (ModelFileError, OSError, ValueError) as exc:
         return _fail("track", str(exc), 2)
-    names = tracker.class_names
-    writers = _writers(args, tracker.model.aam.scheme.n_points, names)
+    expected = video_facts(args.video)[0]
     try:
-        for faces in tracker.process_video_faces(args.video):
-            for writer in writers:
-                for result in faces:
-                    writer.write(result)
+        said, glasses = track_video(tracker, args, expected)
     except OSError as exc:
         return _fail("track", str(exc), 2)
-    finally:
-        for writer in writers:
-            writer.close()
-    print(f"tracked {tracker.frames} frames of {args.video}", file=sys.stderr)
-    expected = frame_count(args.video)
+    print(said, file=sys.stderr)
+    if glasses:
+        print(f"aamtrack track: {glasses}", file=sys.stderr)
     if tracker.frames == 0 or tracker.frames < expected:
         return _fail("track", f"{args.video}: the video ended after {tracker.frames} of its "
                      f"{expected} frames (cut short?); the rows of those frames are written", 1)
     return 0
 
 
-def frame_count(video: Path) -> int:
-    """The number of frames a video's container announces (0 when it does not say)."""
-    import cv2
+def track_video(tracker: Any, args: argparse.Namespace, expected: int) -> tuple[str, str]:
+    """Track ``args.video``, writing the rows and the annotated video asked for; what was
+    done (one line) and why the glasses are not drawn ("" when they are)."""
+    from aamcore.annotate import AnnotatedVideo
+    from aamcore.io.video import video_facts
 
-    capture = cv2.VideoCapture(str(video))
+    writers = _writers(args, tracker.model.aam.scheme.n_points, tracker.class_names)
+    video = AnnotatedVideo(args.annotate, video_facts(args.video)[1]) if args.annotate else None
+    started, rows, K = time.perf_counter(), 0, None
     try:
-        return max(int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0), 0)
+        for frame, faces in shown(tracker.process_video_frames(args.video),
+                                  f"tracking {args.video.name}", expected):
+            for writer in writers:
+                for result in faces:
+                    writer.write(result)
+            rows += len(faces)
+            if video is not None:
+                if K is None:
+                    K = tracker.camera_matrix(frame.shape[1], frame.shape[0])
+                video.put(frame, faces, K)
     finally:
-        capture.release()
+        for writer in writers:
+            writer.close()
+        if video is not None:
+            video.close()
+    spent = time.perf_counter() - started
+    said = (f"tracked {tracker.frames} frames of {args.video} in {spent:.1f} s "
+            f"({tracker.frames / max(spent, 1e-9):.1f} frames/s): {rows} rows"
+            + (f", annotated video {args.annotate}" if video is not None else ""))
+    return said, video.glasses_problem if video is not None else ""

@@ -11,11 +11,12 @@ from pathlib import Path
 
 from aamcore import defaults
 from aamcore.fitting.algorithm import ALGORITHMS
+from services.cli.commands import add_command
 from services.cli.groups import eval_group
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("fit", help="fit a model to images, writing landmarks as JSON")
+    p = add_command(sub, "fit")
     p.add_argument("images", nargs="+", type=Path)
     p.add_argument("--model", type=Path, required=True)
     _algorithm_option(p)

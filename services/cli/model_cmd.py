@@ -7,9 +7,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from services.cli.commands import add_command
+
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("model", aliases=["models"], help="prepare the default models, inspect one")
+    p = add_command(sub, "model")
     msub = p.add_subparsers(dest="model_command", required=True, metavar="ACTION")
     prep = msub.add_parser(
         "prepare", help="train a profile's models now (else the first run does): the fitting "

@@ -13,6 +13,7 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from services.cli.commands import add_command
 from services.cli.groups import eval_group
 
 if TYPE_CHECKING:
@@ -25,7 +26,7 @@ SWEEP_CHOICES = ("yaw", "pitch", "roll", "distance", "all")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("synth", help="render a head under known poses: video + per-frame JSON")
+    p = add_command(sub, "synth")
     p.add_argument("--out", type=Path, required=True, help="output folder")
     p.add_argument("--frames", type=int, default=120, help="number of frames (default 120)")
     p.add_argument(

@@ -19,6 +19,7 @@ from types import FrameType
 from typing import Any
 
 from proto.zenoh_config import config_from_file, zenoh_config
+from services.cli.commands import add_command
 
 DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
 """Where the router listens when neither ``--listen`` nor a config file says."""
@@ -26,8 +27,8 @@ DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``router``."""
-    p = subparsers.add_parser(
-        "router", help="run a Zenoh router (where zenohd is not installed)",
+    p = add_command(
+        subparsers, "router",
         description="Open a Zenoh session in router mode and keep it open until SIGINT or "
         "SIGTERM. Endpoints given here replace those of the config file.")
     p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",

@@ -15,13 +15,14 @@ import importlib
 import sys
 
 from services.bus.options import OptionError
+from services.cli.commands import add_command
 from services.stack.options import add_run_options, from_stack_file, stack_options
 from services.stack.registry import SERVICES
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``run`` and ``service``."""
-    p = subparsers.add_parser("run", help="run the tracking stack on a video, camera or stream",
+    p = add_command(subparsers, "run",
                               description="Start every service as its own process, run until "
                               "the end of the input, stop them all and print a summary.")
     p.add_argument("--stack", metavar="FILE", help="take the services and their options from "
@@ -30,7 +31,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "the file's router")
     add_run_options(p)
     p.set_defaults(func=cmd_run)
-    p = subparsers.add_parser("service", help="run one service of the stack alone",
+    p = add_command(subparsers, "service",
                               description="Run one service; its arguments follow its name "
                               "(aamtrack service fitter --help).")
     p.add_argument("name", choices=list(SERVICES), help="the service")
@@ -85,6 +86,12 @@ def cmd_service(args: argparse.Namespace) -> int:
     argv = list(args.args)
     if argv[:1] == ["--"]:
         argv = argv[1:]
+    service = SERVICES[args.name]
+    if {"-h", "--help"} & set(argv) and "--stack" not in argv:  # help without the service's code
+        from services.bus.args import service_parser
+
+        service_parser(args.name, service.summary, service.options).print_help()
+        return 0
     try:
         argv = _stack_file_argv(args.name, argv)
     except OptionError as exc:
@@ -92,4 +99,4 @@ def cmd_service(args: argparse.Namespace) -> int:
         return 2
     if args.verbose and "--verbose" not in argv:
         argv.append("--verbose")
-    return int(importlib.import_module(SERVICES[args.name].module).main(argv) or 0)
+    return int(importlib.import_module(service.module).main(argv) or 0)

@@ -7,6 +7,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from services.cli.commands import add_command
+
 if TYPE_CHECKING:
     from aamcore.io import FaceSample
     from aamcore.model.training import TrainConfig
@@ -48,8 +50,7 @@ def config_from(args: argparse.Namespace) -> TrainConfig:
 def register(sub: argparse._SubParsersAction) -> None:
     from aamcore import defaults
 
-    p = sub.add_parser("train", help="train an AAM (and with --fit everything fitting needs) "
-                       "from annotated faces")
+    p = add_command(sub, "train")
     p.add_argument(
         "--data",
         required=True,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from aamcore.expression.recogniser import STACK_HOLD
+from aamcore.defaults import EXPRESSION_HOLD
 from services.bus.options import Options, in_range, option
 
 
@@ -19,7 +19,7 @@ class ExpressionOptions(Options):
                                    "was trained on its fits (with --model)", metavar="NAME")
     smooth: int = option(1, "average the probabilities over the last N classified frames (1: none)",
                          metavar="N", check=in_range(1, 1000))
-    hold: int = option(STACK_HOLD, "frames a new label must lead the (smoothed) probabilities "
+    hold: int = option(EXPRESSION_HOLD, "frames a new label must lead the (smoothed) probabilities "
                        "before it is published (0: none)", metavar="N", check=in_range(0, 1000))
     capacity: int = option(48, "latest fits kept while busy: a burst of fast frames is worked "
                            "through, not dropped (a dropped fit is a gap in the stream's "

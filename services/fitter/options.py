@@ -5,9 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from aamcore import defaults
+from aamcore.defaults import FAILURE_TESTS
 from aamcore.fitting.algorithm import ALGORITHMS
 from aamcore.fitting.config import FITTER, FitterConfig
-from aamcore.fitting.failure import FAILURE_TESTS
 from services.bus.options import Options, in_range, option
 
 WARPS = ("auto", "gpu", "cpu")

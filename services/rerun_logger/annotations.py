@@ -22,28 +22,17 @@ from dataclasses import dataclass
 import numpy as np
 import rerun as rr
 
+from aamcore.annotate.palette import (
+    FAILED_COLOUR,
+    OTHER_COLOUR,
+    PART_COLOURS,
+    PARTS,
+    point_groups,
+)
 from aamcore.io.landmarks import IBUG68, LandmarkScheme
 
-FAILED_COLOUR = (235, 60, 50)
-PART_COLOURS: dict[str, tuple[int, int, int]] = {
-    "brows": (255, 150, 20),
-    "eyes": (30, 190, 255),
-    "nose": (60, 220, 90),
-    "mouth": (235, 90, 200),
-    "jaw": (240, 220, 80),
-}
-"""Colour of each facial part, RGB."""
-OTHER_COLOUR = (200, 200, 200)
-"""Colour of the parts of other schemes and of points in no part."""
-PARTS = tuple(PART_COLOURS)
-"""The facial parts, in the order of their class ids."""
 KNOWN_SCHEMES: dict[str, LandmarkScheme] = {IBUG68.name: IBUG68}
 """Schemes whose connectivity is known by name; others are drawn as loose points."""
-NO_PART = "points"
-"""The part of the points of a scheme that names no groups (or of points in none)."""
-
-# Coarse groups first: a point takes the first group that holds it.
-_GROUP_ORDER = ("jaw", "brows", "nose", "eyes", "mouth")
 
 
 def resolve_scheme(name: str, n_points: int) -> LandmarkScheme:
@@ -60,17 +49,6 @@ def resolve_scheme(name: str, n_points: int) -> LandmarkScheme:
     if known is not None and known.n_points == n_points:
         return known
     return LandmarkScheme(name, n_points, ())
-
-
-def point_groups(scheme: LandmarkScheme) -> list[str]:
-    """The group of each landmark (coarse groups first), ``"points"`` for none; ``(n_points,)``."""
-    order = [g for g in _GROUP_ORDER if g in scheme.groups]
-    order += [g for g in scheme.groups if g not in order]
-    group_of: dict[int, str] = {}
-    for group in order:
-        for i in scheme.groups[group]:
-            group_of.setdefault(i, group)
-    return [group_of.get(i, NO_PART) for i in range(scheme.n_points)]
 
 
 def keypoint_labels(scheme: LandmarkScheme) -> list[str]:

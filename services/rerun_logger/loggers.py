@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import rerun as rr
 
+from aamcore.annotate.palette import FACE_COLOURS, OCCLUDED_COLOUR
 from aamcore.ar.glasses_mesh import LENS_PARTS, OPAQUE_PARTS, GlassesMesh
 from aamcore.pose.head_model import HeadModel
 from proto.keys import IMAGES, RESULTS
@@ -21,11 +22,6 @@ from services.rerun_logger.images import DEFAULT_QUALITY, message_jpeg
 from services.rerun_logger.series import SeriesWriter
 
 BOX_COLOUR = (255, 200, 0)
-OCCLUDED_COLOUR = (255, 0, 255)
-FACE_COLOURS = ((80, 200, 120), (80, 160, 255), (255, 170, 60), (200, 110, 255),
-                (255, 90, 140), (60, 220, 220), (220, 220, 80), (150, 150, 150))
-"""Each face's colour (its id modulo the count): the box around its landmarks."""
-"""Landmarks covered by something, RGB: magenta rings over their part's colour."""
 RESIDUAL_SCALE = 80.0
 """Grey levels per unit of the texture residual |r| in the residual image (3 units: white)."""
 HEAD_AXIS_MM = 60.0

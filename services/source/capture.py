@@ -66,6 +66,8 @@ def _open_capture(spec: InputSpec) -> cv2.VideoCapture:
         path = Path(spec.video)
         if not path.exists():
             raise SourceError(f"{spec.describe()}: no such file")
+        if path.is_dir():
+            raise SourceError(f"{spec.describe()}: is a folder, not a video file")
         if not path.is_file():
             raise SourceError(f"{spec.describe()}: not a regular file")
         if path.stat().st_size == 0:
@@ -105,9 +107,10 @@ class VideoInput:
         self._cap = _open_capture(spec)
         if not self._cap.isOpened():
             self._cap.release()
-            raise SourceError(f"{spec.describe()}: OpenCV cannot open it (not a video it "
-                              "can decode, a camera that is absent, or a URL that does not "
-                              f"answer within {OPEN_TIMEOUT_MS / 1000:g} s)")
+            why = ("not a video OpenCV can decode" if spec.is_file else
+                   "a camera that is absent or busy" if spec.camera is not None else
+                   f"no answer within {OPEN_TIMEOUT_MS / 1000:g} s, or not a video stream")
+            raise SourceError(f"{spec.describe()}: OpenCV cannot open it ({why})")
         ok, first = self._cap.read()
         if not ok or first is None or first.size == 0:
             self._cap.release()

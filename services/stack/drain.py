@@ -6,9 +6,12 @@ from __future__ import annotations
 import math
 import threading
 import time
+from typing import TYPE_CHECKING
 
-from proto import Message
 from services.stack.registry import ANSWERS
+
+if TYPE_CHECKING:
+    from proto import Message
 
 DRAIN_QUIET = 0.75
 """Seconds without a result, once the last frame's fit has come, that end a run."""

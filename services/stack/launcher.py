@@ -59,6 +59,7 @@ from services.stack.drain import EndOfRun
 from services.stack.monitor import StackMonitor, summary_table
 from services.stack.options import StackOptions
 from services.stack.outcome import EXIT_INPUT, exit_code
+from services.stack.progress import run_progress
 from services.stack.recorder import RecordWriter
 from services.stack.registry import SERVICES
 from services.stack.supervisor import ServiceSpec, Supervisor
@@ -262,7 +263,8 @@ class Stack:
         A run whose rerun service serves its recording goes on after the end
         of stream until stopped (see :func:`serve_until_stopped`).
         """
-        self.outcome = wait_for_end(self.service, self.supervisor, self.monitor, self.opts)
+        with run_progress(self.opts, self.monitor):
+            self.outcome = wait_for_end(self.service, self.supervisor, self.monitor, self.opts)
         rerun = self.opts.services.get("rerun")
         if self.outcome == "done" and getattr(rerun, "serve", None) is not None:
             self.outcome = serve_until_stopped(self.service, self.supervisor, rerun.serve)

@@ -39,7 +39,7 @@ from aamcore.model.aam import AAM
 from aamcore.model.cache import cache_key, cached_file
 from aamcore.model.training import TrainConfig, train_aam
 from aamcore.progress import bar as progress_bar
-from aamcore.progress import note
+from aamcore.progress import note, phase, plan
 from aamcore.reproducible import one_blas_thread
 
 RECIPE = "fitting v12"
@@ -50,6 +50,14 @@ BINARY = BinaryTrainConfig()
 """The local-binary recipe of the models trained here."""
 OCCLUSION = OcclusionTrainConfig()
 """The occlusion test's recipe of the models trained here."""
+PHASES = (("appearance model", 3.0), ("face detection", 15.0), ("update matrices, level 0", 3.0),
+          ("update matrices, level 1", 3.0), ("descent stages", 22.0),
+          ("coarse HOG stages", 29.0), ("fern stages", 61.0), ("restart stages", 38.0),
+          ("occlusion test", 13.0))
+"""The phases of training the default model, in order, with their seconds on a quiet
+two-core machine (their shares as measured on a loaded one, 1668 s in all, scaled to the
+201 s of a quiet one): what "phase k of n" and the time left are reckoned from
+(:func:`aamcore.progress.plan`)."""
 
 Bar = Callable[[str], Callable[[Iterable[Any]], Iterable[Any]]]
 
@@ -133,9 +141,10 @@ def train_fitting_model(
     if occlusion is not None:
         used = set(chosen)
         unseen = [s for k, s in enumerate(samples) if k not in used]
-        occlusion_part = train_occlusion(aam, unseen if len(unseen) >= 50 else samples,
-                                         regressor_landmarks(aam, mapping, cascade_binary),
-                                         occlusion)
+        with phase("occlusion test"):
+            occlusion_part = train_occlusion(aam, unseen if len(unseen) >= 50 else samples,
+                                             regressor_landmarks(aam, mapping, cascade_binary),
+                                             occlusion)
     return FittingModel(aam, mapping, updates, cascade, cascade_binary, occlusion_part)
 
 
@@ -188,11 +197,12 @@ def build_fitting_model(
     few = subset(data.samples, aam_images)
     note(f"training a fitting model on {len(data.samples)} faces of {data.name} (the "
          f"appearance model on {len(few)})")
-    aam = train_aam(few, data.scheme, config, progress=progress_bar("appearance model"),
-                    source=f"{dataset} [{f'first {limit}' if limit else 'training split'}]")
-    model = train_fitting_model(aam, data.samples, update_method, max_images,
-                                bar=progress_bar, binary=binary, mirror=mirror,
-                                aam_images=aam_images)
+    with plan("training the fitting model", PHASES):
+        aam = train_aam(few, data.scheme, config, progress=progress_bar("appearance model"),
+                        source=f"{dataset} [{f'first {limit}' if limit else 'training split'}]")
+        model = train_fitting_model(aam, data.samples, update_method, max_images,
+                                    bar=progress_bar, binary=binary, mirror=mirror,
+                                    aam_images=aam_images)
     note(f"fitting model trained in {time.perf_counter() - start:.0f} s")
     return model
 

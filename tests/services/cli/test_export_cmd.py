@@ -31,13 +31,24 @@ def recording(single_face: Path, stack_options: Callable[..., StackOptions],
     return rec
 
 
+def _frames_read(video: Path) -> int:
+    capture, read = cv2.VideoCapture(str(video)), 0
+    while capture.read()[0]:
+        read += 1
+    return read
+
+
 def test_a_recording_exports_one_row_per_frame_matching_its_messages(
-    recording: Path, tmp_path: Path, run_cli: Callable[..., subprocess.CompletedProcess[str]],
+    recording: Path, single_face: Path, tmp_path: Path,
+    run_cli: Callable[..., subprocess.CompletedProcess[str]],
 ) -> None:
     out_csv, out_jsonl, out_rrd = tmp_path / "run.csv", tmp_path / "run.jsonl", tmp_path / "r.rrd"
+    drawn = tmp_path / "run.mp4"
     done = run_cli("export", str(recording), "--csv", str(out_csv), "--jsonl", str(out_jsonl),
-                   "--rrd", str(out_rrd))
+                   "--rrd", str(out_rrd), "--annotate", str(drawn), "--video", str(single_face))
     assert done.returncode == 0, done.stderr
+    assert f"exported 72 rows (72 frames) of {recording}" in done.stderr
+    assert _frames_read(drawn) == 72
     messages = load_messages(recording)
     fits = {m.header.frame_index: m for m in messages if isinstance(m, Fit)}
     poses = {m.header.frame_index: m for m in messages if m.KIND == "pose"}
@@ -89,9 +100,15 @@ def test_track_writes_the_rows_of_a_video_and_says_when_it_is_cut_short(
     single_face: Path, model_path: Path, tmp_path: Path,
     run_cli: Callable[..., subprocess.CompletedProcess[str]],
 ) -> None:
-    out = tmp_path / "track.csv"
-    done = run_cli("track", str(single_face), "--csv", str(out), "--model", str(model_path))
+    out, drawn = tmp_path / "track.csv", tmp_path / "track.mp4"
+    done = run_cli("track", str(single_face), "--csv", str(out), "--model", str(model_path),
+                   "--annotate", str(drawn))
     assert done.returncode == 0, done.stderr
+    assert _frames_read(drawn) == FRAMES
+    lines = done.stderr.splitlines()  # not a terminal: lines, no bar
+    assert "aamtrack: tracking single_face.mp4: started (72 frames)" in lines
+    assert lines[-1].startswith(f"tracked 72 frames of {single_face} in ")
+    assert "\r" not in done.stderr
     rows = list(csv.DictReader(out.open()))
     assert len(rows) == FRAMES and sum(r["success"] == "1" for r in rows) >= GOOD_SHARE * FRAMES
     assert all(r["pose_Tz"] for r in rows if r["success"] == "1")
@@ -138,6 +155,8 @@ def test_outputs_and_numbers_are_checked_before_any_work(
     run_cli: Callable[..., subprocess.CompletedProcess[str]],
 ) -> None:
     missing = tmp_path / "no" / "out.csv"
+    text = tmp_path / "notes.mp4"
+    text.write_text("not a video\n" * 40)  # FFmpeg's "moov atom not found" is not shown
     cases = [
         (("track", str(single_face), "--csv", str(missing), "--model", str(model_path)),
          f"--csv {missing}: the folder {missing.parent} does not exist"),
@@ -147,9 +166,34 @@ def test_outputs_and_numbers_are_checked_before_any_work(
          "--fov -5: must be a number from 1 to 179"),
         (("export", str(single_face), "--rrd", "/proc/x.rrd"), "--rrd /proc/x.rrd"),
         (("record", "--out", "/proc/x.rec"), "--out /proc/x.rec: cannot be written"),
+        (("track", str(single_face), "--annotate", str(tmp_path / "no" / "a.mp4")),
+         f"--annotate {tmp_path / 'no' / 'a.mp4'}: the folder {tmp_path / 'no'} does not exist"),
+        (("track", str(single_face), "--annotate", "/proc/a.mp4"),
+         "--annotate /proc/a.mp4: cannot be written"),
+        (("track", str(single_face), "--annotate", str(tmp_path / "a.mkv")),
+         "write a .mp4 or .avi file (not .mkv)"),
+        (("export", str(single_face), "--annotate", str(tmp_path / "a.mp4")),
+         "--annotate and --video go together"),
+        (("track", str(tmp_path), "--csv", str(tmp_path / "a.csv")),
+         f"{tmp_path}: is a folder, not a video file"),
+        (("track", str(text), "--csv", str(tmp_path / "a.csv")),
+         f"{text}: OpenCV cannot open it (not a video OpenCV can decode)"),
     ]
     for argv, expected in cases:
-        done = run_cli(*argv, timeout=60)
+        done = run_cli(*argv, timeout=180)
         lines = [line for line in done.stderr.splitlines() if line.strip()]
         assert done.returncode == 2 and len(lines) == 1 and expected in lines[0], (argv, lines)
     assert not (tmp_path / "a.csv").exists()
+
+
+def test_an_annotated_export_refuses_a_video_the_run_was_not_made_from(
+    recording: Path, videos: Path, tmp_path: Path,
+    run_cli: Callable[..., subprocess.CompletedProcess[str]],
+) -> None:
+    other = videos / "no_face.mp4"
+    done = run_cli("export", str(recording), "--annotate", str(tmp_path / "a.mp4"),
+                   "--video", str(other), timeout=60)
+    assert done.returncode == 2 and done.stderr.splitlines() == [
+        f"aamtrack export: error: {recording} is a run of 72 frames and {other} has 98: give "
+        "--video the video the run was made from"]
+    assert not (tmp_path / "a.mp4").exists()

@@ -35,7 +35,7 @@ def test_bad_video_files_are_named_with_the_problem(
 
 
 def test_a_directory_is_not_a_video(tmp_path: Path) -> None:
-    with pytest.raises(SourceError, match="not a regular file"):
+    with pytest.raises(SourceError, match="is a folder, not a video file"):
         VideoInput(InputSpec(video=str(tmp_path)))
 
 
