@@ -55,9 +55,9 @@ from services.bus.runtime import (
     socket_path,
 )
 from services.bus.session import Service
-from services.bus.trust import read_keys_file
 from services.stack import preflight
 from services.stack.drain import EndOfRun
+from services.stack.hosts import deployment_keys, never_joined, not_joined
 from services.stack.monitor import StackMonitor, summary_table
 from services.stack.options import StackOptions
 from services.stack.outcome import EXIT_INPUT, exit_code
@@ -74,8 +74,11 @@ BEST_EFFORT = {"ar": 5, "rerun": 5}
 JOIN_MARGIN = 10.0
 """Across hosts, seconds the source waits for the other hosts beyond the launcher's start
 timeout, so that the launcher, not the source, says which host never joined."""
-SERVICE_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
-"""One compute thread per service process: many processes share few cores."""
+SERVICE_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+               "MALLOC_ARENA_MAX": "2"}
+"""One compute thread per service process: many processes share few cores; two malloc
+arenas, so that frame-sized buffers freed by Zenoh's threads are reused rather than
+fragmenting one arena per thread (a service's memory stays flat over a long run)."""
 
 
 def default_endpoint(stream: str, run_id: str) -> str:
@@ -163,15 +166,6 @@ def service_specs(opts: StackOptions, bus: BusOptions, keyring: Keyring | None =
     return specs
 
 
-def not_joined(mon: StackMonitor, opts: StackOptions) -> dict[str, list[str]]:
-    """The other hosts of a stack file some of whose services were never heard from (a
-    signed status), with those services."""
-    heard = set(mon.statuses)
-    missing = {host: [s for s in names if s not in heard]
-               for host, names in opts.elsewhere.items()}
-    return {host: names for host, names in missing.items() if names}
-
-
 def wait_for_end(svc: Service, sup: Supervisor, mon: StackMonitor, opts: StackOptions) -> str:
     """Watch the run until it is over; return why: ``done``, ``source failed``, ``stopped``,
     ``host H never joined``..."""
@@ -181,13 +175,10 @@ def wait_for_end(svc: Service, sup: Supervisor, mon: StackMonitor, opts: StackOp
     while not svc.wait(0.1):
         sup.check()
         if not joined:
-            missing = not_joined(mon, opts)
+            missing = not_joined(set(mon.statuses), opts)
             joined = not missing
             if missing and time.monotonic() >= deadline:
-                hosts = "; ".join(f"host {h} ({', '.join(n)})" for h, n in missing.items())
-                return (f"{hosts} of the stack file never joined: not heard from within "
-                        f"{opts.launch.start_timeout:g} s (is it running, and can it reach "
-                        f"{', '.join(opts.bus.connect) if opts.bus else 'the router'}?)")
+                return never_joined(missing, opts)
         if mon.eos is not None:
             if not said_eos:
                 said_eos = True
@@ -305,26 +296,6 @@ class Stack:
         return self.monitor.summary(exclude=NAME) | {
             "run_id": self.run_id, "endpoint": self.endpoint, "outcome": self.outcome,
             "exit_codes": self.exit_codes, "events": list(self.supervisor.events)}
-
-
-def deployment_keys(opts: StackOptions) -> Keyring:
-    """The keys of a stack spread over several hosts: the keys file its stack file names.
-
-    Raises
-    ------
-    preflight.PreflightError
-        When there is none, or it cannot be used.
-    """
-    if opts.bus is None:
-        return Keyring()
-    if not opts.bus.keys:
-        raise preflight.PreflightError(
-            "the stack file names no keys file ([bus] keys = FILE): make one with `aamtrack "
-            "keys FILE` and copy it to every host (mode 600), as its certificates")
-    try:
-        return read_keys_file(opts.bus.keys)
-    except ValueError as exc:
-        raise preflight.PreflightError(str(exc)) from None
 
 
 def prepared(opts: StackOptions) -> StackOptions:
