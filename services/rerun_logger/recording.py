@@ -94,10 +94,8 @@ def open_recording(
         A running viewer to stream to: ``rerun+http://HOST:PORT/proxy`` or a
         port (see :func:`services.rerun_logger.viewer.viewer_address`).
     footer : bool
-        End the file with Rerun's footer (its index of chunks). Rerun keeps the index of
-        every chunk in memory until the file closes (about 1 MB/s at the stack's fastest
-        pacing): a logger that runs for long writes none (``rerun rrd optimize`` adds it
-        afterwards; the file reads whole without it).
+        End the file with Rerun's index of its chunks, which Rerun keeps in memory until
+        then (1 MB/s at the fastest pacing): the long-running logger writes none.
 
     Raises
     ------
