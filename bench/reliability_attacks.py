@@ -225,7 +225,7 @@ def _with_frames(run: Run, argv: list[str],
     _, summary = run(argv, during)
     fitter = summary["services"]["fitter"]
     return _verdict(summary, box["s"].sent, EXIT_OK,
-                    summary["messages"]["fit"] == summary["total_frames"]
+                    summary["messages"]["fit"] == summary["frames_with"]["fit"]
                     and fitter["ignored"] >= FORGED,
                     f", {summary['messages']['fit']} fits, fitter ignored {fitter['ignored']}")
 
@@ -246,7 +246,7 @@ def forged_fits(run: Run, argv: list[str]) -> tuple[bool, str]:
     _, summary = run(argv, during)
     expression = summary["services"]["expression"]
     return _verdict(summary, box["s"].sent, EXIT_OK,
-                    summary["messages"]["fit"] == summary["total_frames"]
+                    summary["messages"]["fit"] == summary["frames_with"]["fit"]
                     and expression["state"] != "degraded" and expression["dropped"] == 0,
                     f", {summary['messages']['fit']} fits, expression {expression['state']}, "
                     f"{expression['dropped']} without their frame")
@@ -380,7 +380,7 @@ def env_frame_far_ahead(run: Run, argv: list[str]) -> tuple[bool, str]:
     summary, note, sent = _env_attack(run, argv, forge, "frame")
     fitter = summary["services"]["fitter"]
     ok, said = _verdict(summary, sent, EXIT_OK, fitter["lost"] == 0
-                        and summary["messages"]["fit"] == summary["total_frames"])
+                        and summary["messages"]["fit"] == summary["frames_with"]["fit"])
     return ok, f"{said}; fitter lost {fitter['lost']}; {note}"
 
 

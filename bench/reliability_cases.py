@@ -21,6 +21,7 @@ on the same bus doing something it should not:
 from __future__ import annotations
 
 import functools
+import itertools
 import json
 import os
 import signal
@@ -89,8 +90,9 @@ def extreme_fits(argv: list[str]) -> tuple[bool, str]:
 def forged_frame_zero(argv: list[str]) -> tuple[bool, str]:
     def during(stack: Stack, intruder: Service) -> None:
         image = np.zeros((24, 32, 3), np.uint8)
-        for k in range(400):  # from before the source's first frame until its fits flow
-            if stack.monitor.counts["fit"] >= 20:
+        deadline = time.monotonic() + 120
+        for k in itertools.count():  # from before the source's first frame until fits flow
+            if stack.monitor.counts["fit"] >= 20 or time.monotonic() > deadline:
                 break
             index = 0 if k % 2 else 900_000 + k
             forged = Header.now(intruder.stream, index, "source", run_id=stack.run_id)

@@ -69,13 +69,9 @@ class Recording:
 
 
 def open_recording(
-    rrd_path: str | Path | None = None,
-    serve_port: int | None = None,
-    blueprint: rrb.Blueprint | None = None,
-    application_id: str = APPLICATION_ID,
-    recording_id: str | None = None,
-    viewer_url: str | None = None,
-    footer: bool = True,
+    rrd_path: str | Path | None = None, serve_port: int | None = None,
+    blueprint: rrb.Blueprint | None = None, application_id: str = APPLICATION_ID,
+    recording_id: str | None = None, viewer_url: str | None = None, footer: bool = True,
 ) -> Recording:
     """Create a recording stream logging to a file, a loopback gRPC server and/or a viewer.
 
