@@ -159,6 +159,7 @@ def service_specs(opts: StackOptions, bus: BusOptions, keyring: Keyring | None =
             listen=(service_listen(bus.connect[0], bus.run_id, name),))
         argv = service_argv(own, options, opts.verbose) + opts.extra.get(name, [])
         checks = trusted(name) | set(options.wait_for if name == "source" else ())
+        checks |= {NAME} if name == "rerun" else set()  # it shows every status
         keys = keyring.for_service(name, checks) if keyring else Keyring()
         specs.append(ServiceSpec(name, SERVICES[name].module, argv,
                                  restart=opts.launch.restart and name != "source",
