@@ -13,11 +13,15 @@ on the same bus doing something it should not:
 - ``pose killed``: the pose service killed mid-run: the fits it missed are counted and the
   run exits 1 saying so.
 - ``other user``: a probe run as user ``nobody`` must not connect to any of the run's
-  sockets (root only; skipped otherwise).
+  sockets (root only; skipped otherwise);
+- the attacks of issue 37, with and without access to the run's processes
+  (:mod:`reliability_attacks`).
 """
 
 from __future__ import annotations
 
+import functools
+import itertools
 import json
 import os
 import signal
@@ -27,6 +31,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from reliability_attacks import ATTACKS
 
 from proto import EndOfStream, Fit, Frame, Header, encode
 from services.bus.connection import BusOptions
@@ -46,11 +51,14 @@ def _intruder(stack: Stack) -> Service:
     return Service("intruder", bus, handle_signals=False, announce=False)
 
 
-def _run(argv: list[str], during: Callable[[Stack, Service], None]) -> tuple[Stack, dict]:
+def _run(argv: list[str], during: Callable[[Stack, Service], None],
+         after: Callable[[Stack, Service], None] | None = None) -> tuple[Stack, dict]:
     opts = prepared(parse_run_args([*argv, "--pace", "realtime", "--loop", "3"]))
     with Stack(opts) as stack, _intruder(stack) as intruder:
         during(stack, intruder)
         stack.wait()
+        if after is not None:
+            after(stack, intruder)
     return stack, stack.summary()
 
 
@@ -82,8 +90,9 @@ def extreme_fits(argv: list[str]) -> tuple[bool, str]:
 def forged_frame_zero(argv: list[str]) -> tuple[bool, str]:
     def during(stack: Stack, intruder: Service) -> None:
         image = np.zeros((24, 32, 3), np.uint8)
-        for k in range(400):  # from before the source's first frame until its fits flow
-            if stack.monitor.counts["fit"] >= 20:
+        deadline = time.monotonic() + 120
+        for k in itertools.count():  # from before the source's first frame until fits flow
+            if stack.monitor.counts["fit"] >= 20 or time.monotonic() > deadline:
                 break
             index = 0 if k % 2 else 900_000 + k
             forged = Header.now(intruder.stream, index, "source", run_id=stack.run_id)
@@ -105,9 +114,11 @@ def forged_end(argv: list[str]) -> tuple[bool, str]:
         intruder.put(intruder.key("eos"), encode(eos), MUST_ARRIVE)
 
     _, summary = _run(argv, during)
-    ok = summary["total_frames"] == 216 and summary["unanswered"]["fit"] == 0
+    ok = (summary["total_frames"] == 216 and summary["unanswered"]["fit"] == 0
+          and summary["ignored"].get("unsigned", 0) >= 1)
     return ok, (f"end of stream at {summary['total_frames']} frames, unanswered "
-                f"{summary['unanswered']}, fitter {summary['services']['fitter']}")
+                f"{summary['unanswered']}, {summary['ignored'].get('unsigned', 0)} unsigned "
+                "ignored")
 
 
 def pose_killed(argv: list[str]) -> tuple[bool, str]:
@@ -150,4 +161,6 @@ def other_user(argv: list[str]) -> tuple[bool, str]:
 
 CASES: dict[str, Case] = {"extreme fits": extreme_fits, "forged frame 0": forged_frame_zero,
                           "forged end": forged_end, "pose killed": pose_killed,
-                          "other user": other_user}
+                          "other user": other_user} | {
+    name: functools.partial(attack, _run) for name, attack in ATTACKS.items()}
+"""Every case: those above, then the attacks of issue 37 (:mod:`reliability_attacks`)."""

@@ -16,13 +16,15 @@ from proto.fields import Int, Str, check_keys, is_int, type_name
 from proto.keys import check_name
 from proto.limits import ProtoError
 
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 """Version of the message contract; any change to a field or a rule bumps it.
 Version 2: ``run_id`` in the header; ``fit.similarity`` (was ``pose``) and the
 fit's frame size; ``status.lost`` and ``status.ignored``. Version 3:
 ``media_time_ns`` in the header. Version 4: ``status.failed``, the header's ``auth``, the
 fit's appearance as one map (nil without one), ``warp_path`` ``none``. Version 5: every face
-in the frame: ``face_id`` in ``fit``, ``pose`` and ``expression``, ``fit.faces``."""
+in the frame: ``face_id`` in ``fit``, ``pose`` and ``expression``, ``fit.faces``. Version 6:
+``auth`` signs every message of a run, with its producer's key, over the whole message
+(:mod:`proto.auth`)."""
 
 
 AUTH_HEX = 32
@@ -86,9 +88,9 @@ class Header:
         timestamps read it, so that a file gives the same results run fast or
         in real time.
     auth : str
-        The run's signature of a ``frame`` or ``eos`` (:mod:`proto.auth`), so that
-        only the run's own source can number frames and end the stream; empty
-        otherwise.
+        The producer's signature of the whole message (:mod:`proto.auth`), so that no
+        program without the producer's key can forge or alter a message of the run;
+        empty outside a run that has keys.
     """
 
     stream_id: str

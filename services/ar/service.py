@@ -127,6 +127,7 @@ def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
         elif (frame := frames.take(pose.header.run_id, pose.header.frame_index,
                                    FRAME_WAIT_S, keep=True)) is None:
             without_frame += 1  # its frame is gone: never received, or pushed out
+            svc.stats.dropped += 1
         else:
             with svc.answering(f"pose {pose.header.frame_index}"):
                 try:
@@ -135,7 +136,7 @@ def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
                     svc.reject("pose", f"no overlay: {exc}")
         svc.set_state("running", f"{svc.stats.frames_out} overlays drawn; not drawn: "
                       f"{unreliable} unreliable poses, {without_frame} poses whose frame was "
-                      f"gone, {svc.stats.dropped} poses or frames skipped while busy")
+                      f"gone, {svc.stats.dropped - without_frame} poses skipped while busy")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

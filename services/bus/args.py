@@ -35,8 +35,16 @@ def parse_service_args(name: str, description: str, options: type[Options],
     parser = service_parser(name, description, options)
     args = parser.parse_args(argv)
     try:
-        return ServiceArgs(options_from(BusOptions, args), options_from(options, args),
-                           args.verbose)
+        parsed = ServiceArgs(options_from(BusOptions, args), options_from(options, args),
+                             args.verbose)
+        if parsed.bus.keys:  # a keys file that cannot be used stops the service before it starts
+            from services.bus.trust import read_keys_file  # numpy: not for --help
+
+            try:
+                read_keys_file(parsed.bus.keys)
+            except ValueError as exc:
+                raise OptionError(f"--keys: {exc}") from None
+        return parsed
     except OptionError as exc:
         parser.error(str(exc))
         raise  # parser.error exits

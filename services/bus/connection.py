@@ -50,6 +50,9 @@ class BusOptions(Options):
     run_id : str
         The run this service belongs to: messages of other runs are ignored
         (and counted). Empty: follow whatever run the stream carries.
+    keys : str
+        A keys file (:func:`services.bus.trust.read_keys_file`) for a service started on
+        its own; a launcher hands its services their keys through a pipe instead.
     """
 
     stream: str = option(DEFAULT_STREAM, "stream id", env="AAMTRACK_STREAM",
@@ -64,6 +67,9 @@ class BusOptions(Options):
                                env="AAMTRACK_ZENOH_CONFIG")
     run_id: str = option("", "accept only messages of this run (set by the launcher)",
                          metavar="RUN", env="AAMTRACK_RUN_ID", check=_problem_of(_check_run_id))
+    keys: str = option("", "keys file of a deployment (aamtrack keys): sign what this "
+                       "service publishes, check what it receives", metavar="FILE",
+                       env="AAMTRACK_KEYS")
 
     def config(self) -> Any:
         """The ``zenoh.Config``: from ``zenoh_config`` when given, else multicast

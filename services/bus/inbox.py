@@ -3,8 +3,10 @@
 Every sample is screened in the Zenoh callback, before it is kept
 (:meth:`Screen.check`): its size and encoding (:func:`proto.decode`), its
 kind, its stream, its producer (only the service that owns a key may publish
-on it) and its run. An invalid sample is counted as rejected, a valid one
-from outside the run as ignored; neither can push a real frame out.
+on it), its run and, in a run with keys, its producer's signature, its age and
+whether its index came before (:mod:`services.bus.trust`). An invalid sample is
+counted as rejected, a valid one that is not the run's, not vouched for or sent
+again as ignored (by reason); none of them can push a real frame out.
 
 Three holders keep what passes (only an :class:`Inbox`, a service's main
 input, counts what it gives in ``frames_in``):
@@ -13,7 +15,8 @@ input, counts what it gives in ``frames_in``):
   inbox drops its oldest, counted as dropped);
 - :class:`Latest`: only the last message (e.g. the frame a detector searches);
 - :class:`Recent`: the last few messages by frame index (e.g. the frame a
-  pose belongs to).
+  pose belongs to); one pushed out is not counted (a message looked up that is
+  gone is counted by its consumer, as dropped work).
 """
 
 from __future__ import annotations
@@ -26,9 +29,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from proto import Message, ProtoError, decode
-from proto.auth import SIGNED, is_signed
-from proto.keys import owner_of, topic_key
+from proto.auth import Keyring
+from proto.keys import owner_of
 from services.bus.stats import FrameNumbering, ServiceStats
+from services.bus.trust import MAX_AGE_S, Replays
 
 
 @dataclass(frozen=True)
@@ -53,7 +57,7 @@ class Received:
 
 
 class Screen:
-    """Decides for each sample: keep, reject (invalid) or ignore (valid, not of this run).
+    """Decides for each sample: keep, reject (invalid) or ignore (valid, not vouched for).
 
     Parameters
     ----------
@@ -64,27 +68,30 @@ class Screen:
     stats : ServiceStats
     reject : callable
         ``reject(source, reason)``: counts and logs a rejected sample.
-    run_key : bytes
-        The run's key: frames and ends of stream on the stream's own topics must carry
-        its signature (:mod:`proto.auth`); empty: nothing is checked.
+    keyring : Keyring, optional
+        The keys of the run's producers (:mod:`proto.auth`): every message must carry
+        its producer's signature, be fresh (:data:`.trust.MAX_AGE_S`) and, where the
+        caller keeps :class:`.trust.Replays`, be the first of its index. None or empty:
+        nothing is checked (a process outside any keyed run).
     restarted : bool
         The service's process is a restart: frames are numbered from the first it sees.
     """
 
     def __init__(
         self, stream: str, run_id: str, stats: ServiceStats, reject: Callable[[str, str], None],
-        run_key: bytes = b"", restarted: bool = False,
+        keyring: Keyring | None = None, restarted: bool = False,
     ) -> None:
         self.stream = stream
         self.run_id = run_id
         self.stats = stats
         self.reject = reject
-        self.run_key = run_key
+        self.keyring = keyring or Keyring()
         self.restarted = restarted
-        self._signed_keys = {topic_key(stream, kind) for kind in SIGNED}
 
-    def check(self, payload: bytes, key: str, kind: str | None) -> Message | None:
-        """The message of a valid sample of this run, else None (counted)."""
+    def check(self, payload: bytes, key: str, kind: str | None,
+              replays: Replays | None = None) -> Message | None:
+        """The message of a valid sample of this run, vouched for by its producer, else None
+        (counted: rejected when invalid, ignored with its reason otherwise)."""
         try:
             message = decode(payload, kind)
         except ProtoError as exc:
@@ -96,15 +103,23 @@ class Screen:
             return None
         owner = owner_of(key)
         if owner is not None and header.producer != owner:
-            self.stats.ignored += 1
-            return None
-        if self.run_id and header.run_id != self.run_id:
-            self.stats.ignored += 1
-            return None
-        if self.run_key and key in self._signed_keys and not is_signed(self.run_key, message):
-            self.stats.ignored += 1  # not from the run's own source
-            return None
+            return self.ignore("not its key's owner")
+        if self.run_id and header.run_id != self.run_id and not (
+                message.KIND == "status" and not header.run_id):  # of a service of any run
+            return self.ignore("another run")
+        if self.keyring:
+            problem = self.keyring.problem(payload, message)
+            if problem:
+                return self.ignore(problem)
+            if abs(time.time_ns() - header.publish_time_ns) > MAX_AGE_S * 1e9:
+                return self.ignore("stale")
+            if replays is not None and not replays.first(message):
+                return self.ignore("replayed")
         return message
+
+    def ignore(self, reason: str) -> None:
+        """Count one well-formed message ignored for ``reason`` (one of :data:`.trust.IGNORED`)."""
+        self.stats.ignore(reason)
 
 
 class _Holder:
@@ -118,6 +133,7 @@ class _Holder:
         self.arrived: threading.Event | None = None
         """Set on every arrival, when given (a loop over several holders waits on it)."""
         self._screen = screen
+        self._replays = Replays()
         self._numbering = (FrameNumbering(screen.stats, screen.restarted) if count_lost
                            else None)
         self._cond = threading.Condition()
@@ -126,7 +142,7 @@ class _Holder:
     def _screened(self, sample: Any) -> Received | None:
         key = str(sample.key_expr)
         payload = sample.payload.to_bytes()
-        message = self._screen.check(payload, key, self.kind)
+        message = self._screen.check(payload, key, self.kind, self._replays)
         if message is None:
             return None
         if self._numbering is not None:
@@ -248,9 +264,8 @@ class Recent(_Holder):
         self._items[(h.run_id, h.frame_index)] = got
         self._newest = (h.run_id, max(h.frame_index, self._newest[1])
                         if h.run_id == self._newest[0] else h.frame_index)
-        while len(self._items) > self.size:
-            self._items.popitem(last=False)
-            self._screen.stats.dropped += 1
+        while len(self._items) > self.size:  # not a drop: a consumer that finds a message
+            self._items.popitem(last=False)  # gone counts its own work as dropped
 
     def take(self, run_id: str, frame_index: int, timeout: float = 0.0, keep: bool = False
              ) -> Received | None:

@@ -24,7 +24,7 @@ from collections.abc import Callable
 from typing import Any
 
 from proto import Header, Message, Status, encode
-from proto.auth import ENV_KEY, SIGNED, signed
+from proto.auth import Keyring
 from proto.keys import alive_key, check_name, topic_key
 from proto.messages import STATES
 from services.bus.connection import BusOptions
@@ -35,6 +35,7 @@ from services.bus.process import ENV_RESTARTS, StopWatch
 from services.bus.qos import MUST_ARRIVE, TOPIC_QOS, QoS
 from services.bus.receiving import Receiving
 from services.bus.stats import ServiceStats
+from services.bus.trust import inherited, read_keys_file
 
 STATUS_PERIOD = 1.0
 """Seconds between two status messages of a service."""
@@ -57,10 +58,11 @@ class Service(Receiving, Presence):
     announce : bool
         Publish a status; False for tools beside the stack (``echo``,
         ``record``), which must not show up among its services.
-    run_key : bytes, optional
-        The run's secret key (:mod:`proto.auth`): frames and ends of stream this service
-        publishes are signed with it, and those it receives must be. By default from the
-        environment (``AAMTRACK_RUN_KEY``, where the launcher puts it); none there, none.
+    keyring : Keyring, optional
+        The run's keys this process holds (:mod:`proto.auth`): every message it publishes
+        is signed with its own, and every message it receives must be signed by its
+        producer. By default those the launcher handed the process
+        (:func:`services.bus.trust.inherited`); none: nothing is signed or checked.
 
     Notes
     -----
@@ -72,7 +74,7 @@ class Service(Receiving, Presence):
 
     def __init__(self, name: str, bus: BusOptions, status_period: float = STATUS_PERIOD,
                  handle_signals: bool = True, announce: bool = True,
-                 run_key: bytes | None = None) -> None:
+                 keyring: Keyring | None = None) -> None:
         self.name = check_name(name, "service")
         self.bus = bus
         self.stream = bus.stream
@@ -81,8 +83,10 @@ class Service(Receiving, Presence):
         self.log = logging.getLogger(f"aamtrack.{name}")
         self.restarts = int(os.environ.get(ENV_RESTARTS, "0") or 0)
         self.session: Any = None
-        self.run_key = run_key if run_key is not None else _key_from_environment()
-        self.screen = Screen(self.stream, self.run_id, self.stats, self.reject, self.run_key,
+        self.keyring = keyring if keyring is not None else _keyring_of(bus, self.name)
+        if self.keyring and self.keyring.signer != self.name:
+            self.keyring = Keyring(self.keyring.keys)  # checks only: the keys are another's
+        self.screen = Screen(self.stream, self.run_id, self.stats, self.reject, self.keyring,
                              self.restarts > 0)
         self.stop_hooks: list[Callable[[], None]] = []
         """Called (in the stopping thread) when the service is asked to stop."""
@@ -97,6 +101,7 @@ class Service(Receiving, Presence):
         self._reasons: set[str] = set()
         self._token: Any = None
         self._alive: set[str] = set()
+        self._vouched: set[str] = set()
         self._watching = False
         self._status_thread: threading.Thread | None = None
         self._lock = threading.Lock()
@@ -151,7 +156,7 @@ class Service(Receiving, Presence):
         try:
             if self._announce:
                 status = self.status()
-                session.put(status.key(), encode(status), **MUST_ARRIVE.publisher_kwargs())
+                session.put(status.key(), self.encode(status), **MUST_ARRIVE.publisher_kwargs())
         except Exception as exc:  # the session may already be broken; closing matters more
             self.log.debug("last status not published: %s", exc)
         finally:
@@ -173,6 +178,8 @@ class Service(Receiving, Presence):
                     alive_key(self.stream, self.name))
         if self._state == "starting":
             self.set_state("running", message or None)
+            self._publish_status()  # now, not a period later: peers may wait for it
+
 
     @property
     def stopping(self) -> bool:
@@ -211,12 +218,14 @@ class Service(Receiving, Presence):
         h = source.header
         return self.header(h.frame_index, h.capture_time_ns, h.run_id, h.media_time_ns)
 
+    def encode(self, message: Message) -> bytes:
+        """``message`` encoded, and signed with this service's key when it has one."""
+        return self.keyring.encode(message) if self.keyring.signer else encode(message)
+
     def publish(self, message: Message, count: bool = True) -> None:
-        """Encode ``message`` (signed, when it is a kind the run signs and there is a key)
-        and put it on its key with its topic's QoS."""
-        if self.run_key and message.KIND in SIGNED:
-            message = signed(self.run_key, message)
-        self.put(message.key(), encode(message), TOPIC_QOS.get(message.KIND, QoS()))
+        """Encode ``message`` (signed: :meth:`encode`) and put it on its key with its
+        topic's QoS."""
+        self.put(message.key(), self.encode(message), TOPIC_QOS.get(message.KIND, QoS()))
         if count:
             self.stats.frames_out += 1
 
@@ -268,22 +277,28 @@ class Service(Receiving, Presence):
             restarts=self.restarts, message=self._message,
         )
 
+    def _publish_status(self) -> None:
+        if not self._announce:
+            return
+        try:
+            status = self.status()
+            self.put(status.key(), self.encode(status), TOPIC_QOS["status"])
+        except Exception as exc:  # keep the thread alive; the next period retries
+            self.log.debug("status not published: %s", exc)
+
     def _status_loop(self) -> None:
         while not self._stop.wait(self._status_period):
-            try:
-                status = self.status()
-                self.put(status.key(), encode(status), TOPIC_QOS["status"])
-            except Exception as exc:  # keep the thread alive; the next period retries
-                self.log.debug("status not published: %s", exc)
+            self._publish_status()
 
 
-def _key_from_environment() -> bytes:
-    """The run key the launcher put in the environment (empty bytes: none, or not hex)."""
+def _keyring_of(bus: BusOptions, name: str) -> Keyring:
+    """The keys of a service: from its ``--keys`` file, else those handed to the process."""
+    if not bus.keys:
+        return inherited()
     try:
-        return bytes.fromhex(os.environ.get(ENV_KEY, ""))
-    except ValueError:
-        _log.warning("%s is not hex: frames and ends of stream go unsigned", ENV_KEY)
-        return b""
+        return read_keys_file(bus.keys, name)
+    except ValueError as exc:
+        raise OptionError(f"--keys: {exc}") from None
 
 
 def _undeclare(item: Any) -> None:

@@ -3,8 +3,9 @@
 Counting rule: ``frames_in`` counts valid messages taken for processing,
 ``frames_out`` messages published, ``dropped`` messages skipped by design
 (overwritten in a latest-only inbox, or skipped by the service), ``rejected``
-messages that are not valid, ``ignored`` valid messages from outside the run
-(another run id, or a producer that does not own the key), ``failed`` valid
+messages that are not valid, ``ignored`` valid messages that are not the run's or not
+vouched for (another run id, a producer that does not own the key, no signature of the
+producer, stale or sent again: :data:`services.bus.trust.IGNORED`), ``failed`` valid
 messages taken that could not be answered (an error while working on them) and
 ``lost`` frames that never arrived (gaps in the numbering of their run).
 """
@@ -56,6 +57,13 @@ class ServiceStats:
     last_frame: int = 0
     last_capture_ns: int = 0
     latency: LatencyWindow = field(default_factory=LatencyWindow)
+    ignored_by: collections.Counter[str] = field(default_factory=collections.Counter)
+    """``ignored`` by reason (:data:`services.bus.trust.IGNORED`)."""
+
+    def ignore(self, reason: str) -> None:
+        """Count one message ignored for ``reason``."""
+        self.ignored += 1
+        self.ignored_by[reason] += 1
 
     def count_in(self, header: Header | None = None) -> None:
         """Count one message taken, remembering its frame index."""

@@ -42,6 +42,8 @@ COMMANDS: dict[str, Command] = {
     "service": Command("run one service of the stack alone", (_CLI + "run_cmd",)),
     "router": Command("run a Zenoh router (where zenohd is not installed)",
                       (_CLI + "router_cmd",)),
+    "keys": Command("write a new keys file for a deployment over several hosts",
+                    (_CLI + "router_cmd",)),
 }
 """Every command, in the order ``aamtrack --help`` lists them."""
 

@@ -1,4 +1,11 @@
-"""``aamtrack router``: a Zenoh router where ``zenohd`` is not installed.
+"""``aamtrack router`` and ``aamtrack keys``: what a deployment over several hosts needs
+beside the stack.
+
+``aamtrack keys FILE`` writes a new keys file (mode 600): a secret key per service
+(:mod:`proto.auth`), which every host of a stack file names in ``[bus] keys`` and gets a
+copy of, as it gets its certificates.
+
+``aamtrack router``: a Zenoh router where ``zenohd`` is not installed.
 
 It opens one Zenoh session in router mode, listening on the given endpoints
 (and optionally connecting to other routers), from a configuration file
@@ -26,7 +33,15 @@ DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    """Add ``router``."""
+    """Add ``router`` and ``keys``."""
+    k = add_command(
+        subparsers, "keys",
+        description="Write a secret key for every service (and the launchers) to a new file "
+        "of mode 600. Name it in the stack file ([bus] keys = FILE) and copy it to every "
+        "host: each service signs what it publishes with its key, and checks what it "
+        "receives with the others'.")
+    k.add_argument("file", metavar="FILE", help="the keys file to write (never overwritten)")
+    k.set_defaults(func=cmd_keys)
     p = add_command(
         subparsers, "router",
         description="Open a Zenoh session in router mode and keep it open until SIGINT or "
@@ -39,6 +54,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--config", metavar="FILE",
                    help="Zenoh JSON5 configuration file (TLS, access control, ...)")
     p.set_defaults(func=cmd_router)
+
+
+def cmd_keys(args: argparse.Namespace) -> int:
+    """``aamtrack keys FILE``: 0 once written, 2 when the file exists or cannot be made."""
+    from proto.auth import Keyring
+    from services.bus.trust import write_keys_file
+    from services.stack.registry import SERVICES
+
+    try:
+        write_keys_file(args.file, Keyring.generate([*SERVICES, "launcher"]))
+    except OSError as exc:
+        print(f"aamtrack keys: error: {args.file}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    print(f"wrote {args.file}: keys of {', '.join([*SERVICES, 'launcher'])}; copy it to "
+          "every host (mode 600)")
+    return 0
 
 
 def router_config(config: str | None, listen: list[str], connect: list[str]) -> Any:

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from aamcore.detection.haar import HaarFaceDetector
-from proto import FaceBoxes, Frame, ProtoError, encode
+from proto import FaceBoxes, Frame, ProtoError
 from proto.keys import detect_key
 from services.bus.args import parse_service_args
 from services.bus.images import image_of
@@ -70,7 +70,7 @@ class Detection:
             self.svc.reject("detect query", str(exc))
             query.reply_err(str(exc).encode()[:1000])
             return
-        data = encode(boxes)
+        data = self.svc.encode(boxes)
         query.reply(query.key_expr, data, attachment=self.settings)
         self.svc.publish(boxes)
 

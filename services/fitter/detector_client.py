@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from aamcore.detection.haar import HaarFaceDetector
-from proto import Frame, ProtoError, decode, encode
+from proto import Frame, Header
 from proto.keys import detect_key
 from services.bus.session import Service
 
@@ -49,11 +49,13 @@ class ServiceDetector:
         self._local_until = 0.0
         self._image: np.ndarray | None = None
         self._payload = b""
+        self._header: Header | None = None
 
-    def set_frame(self, image: np.ndarray, payload: bytes) -> None:
-        """The decoded image of the frame message about to be tracked, and the message's
-        bytes."""
-        self._image, self._payload = image, payload
+    def set_frame(self, image: np.ndarray, payload: bytes, header: Header | None = None
+                  ) -> None:
+        """The decoded image of the frame message about to be tracked, the message's
+        bytes and its header."""
+        self._image, self._payload, self._header = image, payload, header
 
     def detect(self, image: np.ndarray) -> np.ndarray:
         """Face boxes ``(K, 4)`` float64 ``x, y, w, h`` in ``image``, largest first."""
@@ -67,22 +69,30 @@ class ServiceDetector:
                 self.timeout, self.local_for)
         return self._detect_locally(image)
 
-    def _payload_for(self, image: np.ndarray) -> bytes:
+    def _query_for(self, image: np.ndarray) -> tuple[bytes, Header | None]:
+        """The frame message to ask about ``image`` (signed by its producer) and its header."""
         if image is self._image:
-            return self._payload
+            return self._payload, self._header
         height, width = image.shape[:2]
-        return encode(Frame(self.svc.header(0), "raw", width, height, image))
+        frame = Frame(self.svc.header(0), "raw", width, height, image)
+        return self.svc.encode(frame), frame.header
 
     def _ask(self, image: np.ndarray) -> np.ndarray | None:
         self.queries += 1
-        for reply in self._querier.get(payload=self._payload_for(image)):
+        payload, asked = self._query_for(image)
+        for reply in self._querier.get(payload=payload):
             if reply.ok is None:
                 self.svc.reject("detector reply", f"error reply: {_err_text(reply)}")
                 continue
-            try:
-                boxes = decode(reply.ok.payload.to_bytes(), "boxes")
-            except ProtoError as exc:
-                self.svc.reject("detector reply", exc.reason)
+            boxes = self.svc.screen.check(reply.ok.payload.to_bytes(), str(reply.ok.key_expr),
+                                          "boxes")
+            if boxes is None:
+                continue  # counted: malformed, or not the run's detector's
+            if boxes.header.producer != "detector" or (asked is not None and (
+                    boxes.header.capture_time_ns, boxes.header.frame_index)
+                    != (asked.capture_time_ns, asked.frame_index)):
+                self.svc.screen.ignore("not its key's owner" if boxes.header.producer
+                                       != "detector" else "replayed")
                 continue
             if (boxes.image_width, boxes.image_height) != (image.shape[1], image.shape[0]):
                 self.svc.reject("detector reply", "boxes for a frame of another size")

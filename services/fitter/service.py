@@ -139,7 +139,7 @@ class FrameTracker:
         except ProtoError as exc:
             self.svc.reject("frame", exc.reason)
             return []
-        self.detector.set_frame(image, got.payload)
+        self.detector.set_frame(image, got.payload, got.message.header)
         self.warp.take_path()
         tracked, failed = self.tracker.track(image)
         warp_path = self.warp.take_path()

@@ -58,9 +58,9 @@ class Recording:
     def close(self) -> None:
         """Flush everything and close the file and the server.
 
-        The file gets its footer only here: a recording that is never closed
-        leaves a file without one (still readable as a stream, but cut short).
-        A viewer that went away loses what it did not get; the file does not.
+        A file written with its footer gets it only here (a recording that is never closed
+        leaves a file without one, still readable as a stream). A viewer that went away
+        loses what it did not get; the file does not.
         """
         try:
             self.flush()
@@ -69,12 +69,9 @@ class Recording:
 
 
 def open_recording(
-    rrd_path: str | Path | None = None,
-    serve_port: int | None = None,
-    blueprint: rrb.Blueprint | None = None,
-    application_id: str = APPLICATION_ID,
-    recording_id: str | None = None,
-    viewer_url: str | None = None,
+    rrd_path: str | Path | None = None, serve_port: int | None = None,
+    blueprint: rrb.Blueprint | None = None, application_id: str = APPLICATION_ID,
+    recording_id: str | None = None, viewer_url: str | None = None, footer: bool = True,
 ) -> Recording:
     """Create a recording stream logging to a file, a loopback gRPC server and/or a viewer.
 
@@ -92,6 +89,9 @@ def open_recording(
     viewer_url : str, optional
         A running viewer to stream to: ``rerun+http://HOST:PORT/proxy`` or a
         port (see :func:`services.rerun_logger.viewer.viewer_address`).
+    footer : bool
+        End the file with Rerun's index of its chunks, which Rerun keeps in memory until
+        then (1 MB/s at the fastest pacing): the long-running logger writes none.
 
     Raises
     ------
@@ -109,7 +109,7 @@ def open_recording(
         path = Path(rrd_path)
         if not path.parent.is_dir():
             raise ValueError(f"folder of the .rrd file does not exist: {path.parent}")
-        sinks.append(rr.FileSink(path))
+        sinks.append(rr.FileSink(path, write_footer=footer))
     server = None
     if serve_port is not None:
         if not 1 <= serve_port <= 65535:

@@ -23,6 +23,9 @@ loopback (``--serve PORT``), to a viewer that runs already (``--viewer
   the void. A viewer that goes away later loses the rest; the file does not.
 - A restarted service never overwrites what its first run wrote: it writes a
   new part beside it (``run.part1.rrd``, ...), of the same recording id.
+- The file has no footer (Rerun's index of its chunks, which Rerun would keep in memory
+  for the whole run): the logger stays flat over a long run; ``rerun rrd optimize``
+  adds the index afterwards.
 """
 
 from __future__ import annotations
@@ -146,7 +149,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             recording = open_recording(rrd, opts.serve, build_blueprint(),
                                        recording_id=args.bus.run_id or None,
-                                       viewer_url=opts.viewer)
+                                       viewer_url=opts.viewer, footer=False)
         except (ValueError, OSError, RuntimeError) as exc:
             _log.error("cannot open the recording: %s", exc)
             svc.set_state("failed", f"cannot open the recording: {exc}")

@@ -12,10 +12,11 @@ The launcher
    listens on a socket (with ``--endpoint tcp/...``, a loopback port) of its
    own, and Zenoh's gossip joins them into a mesh (no router, multicast
    scouting off);
-3. gives the run a run id and a secret key (:mod:`proto.auth`): every service
-   accepts only messages of the run, and frames and the end of stream only
-   from its own source, so processes of another run or another program on the
-   same bus change nothing (they are counted and named in the summary);
+3. gives the run a run id and a secret key per service (:mod:`proto.auth`; across hosts,
+   the keys file the stack file names), handed to each process through a pipe: every
+   service signs what it publishes and accepts only messages of the run signed by their
+   producer, each index once, so processes of another run or another program on the
+   same bus change nothing (they are counted by reason in the summary);
 4. starts each service as its own process (a fresh interpreter in a process group of its own, see
    :mod:`services.stack.supervisor`; each dies with the launcher), the
    source last, once the others hold their liveliness tokens;
@@ -34,15 +35,15 @@ from __future__ import annotations
 
 import json
 import logging
-import secrets
 import socket
 import sys
+import time
 import uuid
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from proto.auth import ENV_KEY
+from proto.auth import Keyring
 from services.bus.args import service_argv
 from services.bus.connection import BusOptions
 from services.bus.options import OptionError
@@ -56,24 +57,29 @@ from services.bus.runtime import (
 from services.bus.session import Service
 from services.stack import preflight
 from services.stack.drain import EndOfRun
+from services.stack.hosts import deployment_keys, never_joined, not_joined
 from services.stack.monitor import StackMonitor, summary_table
 from services.stack.options import StackOptions
 from services.stack.outcome import EXIT_INPUT, exit_code
 from services.stack.progress import run_progress
 from services.stack.recorder import RecordWriter
-from services.stack.registry import SERVICES
+from services.stack.registry import SERVICES, trusted
 from services.stack.supervisor import ServiceSpec, Supervisor
 
 log = logging.getLogger("aamtrack.launcher")
 NAME = "launcher"
 FINAL_STATUS_WAIT = 2.0
 """Seconds to wait, once the processes are gone, for their last status messages."""
-SETTLE = 0.3
-"""Seconds the launcher listens before it starts anything, to hear services already there."""
 BEST_EFFORT = {"ar": 5, "rerun": 5}
 """Niceness of the stages off the capture-to-pose path: they yield the CPU to it."""
-SERVICE_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
-"""One compute thread per service process: many processes share few cores."""
+JOIN_MARGIN = 10.0
+"""Across hosts, seconds the source waits for the other hosts beyond the launcher's start
+timeout, so that the launcher, not the source, says which host never joined."""
+SERVICE_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+               "MALLOC_ARENA_MAX": "2"}
+"""One compute thread per service process: many processes share few cores; two malloc
+arenas, so that frame-sized buffers freed by Zenoh's threads are reused rather than
+fragmenting one arena per thread (a service's memory stays flat over a long run)."""
 
 
 def default_endpoint(stream: str, run_id: str) -> str:
@@ -135,33 +141,46 @@ def prepare_models(opts: StackOptions) -> StackOptions:
     return replace(opts, services=services)
 
 
-def service_specs(opts: StackOptions, bus: BusOptions) -> list[ServiceSpec]:
+def service_specs(opts: StackOptions, bus: BusOptions, keyring: Keyring | None = None
+                  ) -> list[ServiceSpec]:
     """The processes of the stack, the source last (waiting for the others). On one host
-    each listens where :func:`service_listen` says; across hosts, as ``bus`` says."""
+    each listens where :func:`service_listen` says; across hosts, as ``bus`` says. Each
+    gets the keys it needs from ``keyring`` (:func:`.registry.trusted`)."""
+    keyring = keyring or Keyring()
     names = [n for n in opts.services if n != "source"]
     specs = []
     for name in [*names, "source"] if "source" in opts.services else names:
         options = opts.services[name]
         if name == "source":
             wait_for = opts.wait_for if opts.wait_for is not None else tuple(names)
-            options = options.replace(wait_for=wait_for, wait_timeout=opts.launch.start_timeout)
+            # Across hosts the launcher says which host never joined, before the source gives up.
+            timeout = opts.launch.start_timeout + (JOIN_MARGIN if opts.elsewhere else 0.0)
+            options = options.replace(wait_for=wait_for, wait_timeout=timeout)
         own = bus if opts.bus is not None else bus.replace(
             listen=(service_listen(bus.connect[0], bus.run_id, name),))
         argv = service_argv(own, options, opts.verbose) + opts.extra.get(name, [])
+        checks = trusted(name) | set(options.wait_for if name == "source" else ())
+        checks |= {NAME} if name == "rerun" else set()  # it shows every status
+        keys = keyring.for_service(name, checks) if keyring else Keyring()
         specs.append(ServiceSpec(name, SERVICES[name].module, argv,
                                  restart=opts.launch.restart and name != "source",
-                                 nice=BEST_EFFORT.get(name, 0)))
+                                 nice=BEST_EFFORT.get(name, 0), keyring=keys))
     return specs
 
 
 def wait_for_end(svc: Service, sup: Supervisor, mon: StackMonitor, opts: StackOptions) -> str:
-    """Watch the run until it is over; return why: ``done``, ``source failed``, ``stopped``..."""
+    """Watch the run until it is over; return why: ``done``, ``source failed``, ``stopped``,
+    ``host H never joined``..."""
     said_eos = False
+    joined = not opts.elsewhere
+    deadline = time.monotonic() + opts.launch.start_timeout
     while not svc.wait(0.1):
         sup.check()
-        if mon.foreign and not mon.counts["fit"]:
-            runs = ", ".join(f"{run}: {', '.join(sorted(n))}" for run, n in mon.foreign.items())
-            return f"taken: services of another run are on this endpoint ({runs})"
+        if not joined:
+            missing = not_joined(set(mon.statuses), opts)
+            joined = not missing
+            if missing and time.monotonic() >= deadline:
+                return never_joined(missing, opts)
         if mon.eos is not None:
             if not said_eos:
                 said_eos = True
@@ -208,28 +227,32 @@ class Stack:
     def __init__(self, opts: StackOptions) -> None:
         self.opts = opts
         stream = opts.launch.stream
-        self.run_key = b""
-        """The run's secret key (:mod:`proto.auth`); none across several hosts."""
         if opts.bus is None:
             self.run_id = f"run-{uuid.uuid4().hex[:12]}"
             try:
                 self.endpoint = opts.launch.endpoint or default_endpoint(stream, self.run_id)
             except OptionError as exc:
                 raise preflight.PreflightError(str(exc)) from None
-            self.run_key = secrets.token_bytes(16)
+            self.keyring = Keyring.generate([*opts.services, NAME])
+            """The run's keys, one per service (:mod:`proto.auth`)."""
             service_bus = BusOptions(stream, "peer", connect=(self.endpoint,),
                                      run_id=self.run_id)
             own_bus = BusOptions(stream, "peer", listen=(self.endpoint,), run_id=self.run_id)
         else:  # one host of several: everything joins the stack's router
             self.endpoint = ", ".join(opts.bus.connect)
-            self.run_id = opts.bus.run_id
-            service_bus = own_bus = opts.bus
-        self.specs = service_specs(opts, service_bus)
-        self.supervisor = Supervisor(self.specs, env=SERVICE_ENV | {ENV_KEY: self.run_key.hex()})
+            # The source's host starts a run; the others follow whichever run comes.
+            self.run_id = opts.bus.run_id or (
+                f"run-{uuid.uuid4().hex[:12]}" if "source" in opts.services else "")
+            self.keyring = deployment_keys(opts)
+            service_bus = own_bus = opts.bus.replace(keys="", run_id=self.run_id)
+        self.specs = service_specs(opts, service_bus, self.keyring)
+        self.supervisor = Supervisor(self.specs, env=SERVICE_ENV)
         self.recorder = RecordWriter(opts.launch.record) if opts.launch.record else None
-        self.service = Service(NAME, own_bus, run_key=self.run_key)
+        signer = NAME if NAME in self.keyring.keys else ""
+        self.service = Service(NAME, own_bus, keyring=Keyring(self.keyring.keys, signer))
         self.monitor = StackMonitor(self.service, self.recorder, opts.launch.record_images,
-                                    EndOfRun(opts.launch.drain_quiet, opts.launch.drain_max))
+                                    EndOfRun(opts.launch.drain_quiet, opts.launch.drain_max),
+                                    expected=list(opts.services))
         self.exit_codes: dict[str, int | None] = {}
         self.outcome = "stopped"
 
@@ -237,8 +260,6 @@ class Stack:
         try:
             self.service.open()
             self.monitor.subscribe()
-            if self.opts.bus is None:
-                self._refuse_if_taken()
             self.service.ready(f"listening on {self.endpoint}, run {self.run_id}")
             log.info("stack bus at %s (other programs can connect there)", self.endpoint)
             self.supervisor.start()
@@ -246,16 +267,6 @@ class Stack:
             self.__exit__(None, None, None)
             raise
         return self
-
-    def _refuse_if_taken(self) -> None:
-        """Services already alive on the launcher's endpoint belong to another run."""
-        self.service.watch_presence()
-        self.service.wait(SETTLE)
-        others = sorted(self.service.alive() & set(SERVICES))
-        if others:
-            raise preflight.PreflightError(
-                f"--endpoint {self.endpoint}: services of another run are on it "
-                f"({', '.join(others)}): stop them first")
 
     def wait(self) -> str:
         """Watch the run until it ends; the outcome (see :func:`wait_for_end`).
@@ -303,6 +314,7 @@ def prepared(opts: StackOptions) -> StackOptions:
     bus = BusOptions(opts.launch.stream, "peer", connect=("tcp/127.0.0.1:7447",),
                      run_id="run-check")
     preflight.check_service_args(opts, bus)
+    deployment_keys(opts)
     preflight.check_viewer(opts)
     preflight.check_outputs(opts)
     preflight.check_input(opts)

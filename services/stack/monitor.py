@@ -1,8 +1,9 @@
 """What the launcher sees on the bus: results per frame, statuses, end of stream, the summary.
 
-Everything is screened like a service's input (:class:`services.bus.inbox.Screen`):
-only messages of the run's own services count; those of another run are
-ignored and their runs listed in the summary.
+Everything is screened like a service's input (:class:`services.bus.inbox.Screen`): only
+messages of the run signed by the run's own services count, each index once; everything
+else is ignored or rejected, counted by reason in the summary, and the runs of statuses of
+another run are listed there.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from typing import Any
 from proto import EndOfStream, Message, Status, decode
 from proto.keys import status_wildcard
 from services.bus.session import Service
+from services.bus.trust import Replays
 from services.stack.drain import EndOfRun
 from services.stack.recorder import IMAGE_KINDS, RESULT_KINDS, RecordWriter
 from services.stack.registry import SERVICES
@@ -28,8 +30,11 @@ class StackMonitor:
     """Counts and records a run's messages, as the launcher's service receives them."""
 
     def __init__(self, svc: Service, recorder: RecordWriter | None, record_images: bool,
-                 end: EndOfRun | None = None) -> None:
+                 end: EndOfRun | None = None, expected: list[str] | None = None) -> None:
         self.svc = svc
+        self.expected = list(expected or [])
+        """The run's services (those of every host, across hosts)."""
+        self.replays = Replays()
         self.recorder = recorder
         self.indices: dict[str, set[int]] = {k: set() for k in RESULTS}
         self.counts: dict[str, int] = {k: 0 for k in (*RESULT_KINDS, *IMAGE_KINDS)}
@@ -62,7 +67,7 @@ class StackMonitor:
     def _on_sample(self, sample: Any) -> None:
         key, payload = str(sample.key_expr), sample.payload.to_bytes()
         kind = key.rsplit("/", 2)[-2] if "/status/" in key else key.rsplit("/", 1)[-1]
-        msg = self.svc.screen.check(payload, key, kind)
+        msg = self.svc.screen.check(payload, key, kind, self.replays)
         if msg is None:
             self._note_foreign(payload, kind)
             return
@@ -133,6 +138,8 @@ class StackMonitor:
                 "unanswered": unanswered,
                 "frames_lost": unanswered["fit"],
                 "foreign_runs": {run: sorted(names) for run, names in self.foreign.items()},
+                "ignored": dict(sorted(self.svc.stats.ignored_by.items())),
+                "rejected": self.svc.stats.rejected,
             }
 
 
@@ -199,6 +206,14 @@ def summary_table(summary: dict[str, Any]) -> str:
         lines.append(f"{name:<12} {s['state']:<9} {s['frames_in']:>6} {s['frames_out']:>6} "
                      f"{s['dropped']:>7} {s['rejected']:>8} {s['lost']:>5} {s['ignored']:>7} "
                      f"{s['failed']:>6} {p50:>7} {p99:>7} {s['restarts']:>8}")
+    if "ar" in summary["services"]:
+        lines.append(f"ar: {summary['services']['ar']['message']}")
+    ignored = summary.get("ignored", {})
+    if ignored or summary.get("rejected"):
+        parts = [f"{n} {why}" for why, n in ignored.items()]
+        if summary.get("rejected"):
+            parts.append(f"{summary['rejected']} malformed (rejected)")
+        lines.append(f"not the run's, seen by the launcher and ignored: {', '.join(parts)}")
     for run, names in summary.get("foreign_runs", {}).items():
         lines.append(f"ignored: services of another run {run!r} on this bus: {', '.join(names)}")
     return "\n".join(lines)

@@ -98,6 +98,9 @@ class StackOptions:
         joins (a router's); None runs the whole stack on this machine.
     wait_for : tuple of str, optional
         The services the source waits for (default: the others started here).
+    elsewhere : dict of str to tuple of str
+        Across hosts: the services each other host runs; each must be heard from (a signed
+        status) within the start timeout.
     """
 
     launch: LaunchOptions = LaunchOptions()
@@ -106,6 +109,7 @@ class StackOptions:
     verbose: bool = False
     bus: BusOptions | None = None
     wait_for: tuple[str, ...] | None = None
+    elsewhere: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
     def options(self, name: str) -> Any:
         """The options of service ``name`` (its defaults when it is not started)."""
@@ -169,7 +173,7 @@ def stack_options(args: argparse.Namespace, base: StackOptions | None = None) ->
     services.update(keep_every_fit(services))
     extra = {**base.extra, **extra_args(getattr(args, "set", []) or [])}
     return StackOptions(launch, services, extra, bool(getattr(args, "verbose", False)),
-                        base.bus, base.wait_for)
+                        base.bus, base.wait_for, base.elsewhere)
 
 
 def profiled(name: str, options: Options | None, profile: Profile) -> Options:
@@ -221,7 +225,8 @@ def from_stack_file(path: str, host: str | None = None) -> StackOptions:
     if host is None:
         return StackOptions(launch, services)
     others = tuple(n for n in stack.services_of() if n != "source")
-    return StackOptions(launch, services, bus=stack.bus(host), wait_for=others)
+    return StackOptions(launch, services, bus=stack.bus(host), wait_for=others,
+                        elsewhere=stack.elsewhere(host))
 
 
 def parse_run_args(argv: Sequence[str]) -> StackOptions:

@@ -36,10 +36,6 @@ def exit_code(outcome: str, summary: dict[str, Any]) -> int:
     if outcome == "stopped":
         print("aamtrack run: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    if outcome.startswith("taken"):
-        print(f"aamtrack run: error: {outcome.removeprefix('taken: ')}: stop them first",
-              file=sys.stderr)
-        return EXIT_INPUT
     why = reason.removeprefix("error: ") if reason.startswith("error") else outcome
     print(f"aamtrack run: error: {why}", file=sys.stderr)
     return EXIT_FAILED

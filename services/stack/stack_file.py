@@ -5,11 +5,13 @@
     [bus]
     stream = "cam0"
     router = "tcp/compute.example.lan:7447"   # what every host connects to
-    mode = "peer"                             # a host may say "client"
+    keys = "run.keys"                         # aamtrack keys: on every host, mode 600
 
     [hosts.compute]
+    address = "compute.example.lan"           # where its services listen (peer mode)
     router = true                             # this host runs the router
     services = ["detector", "fitter", "pose", "expression", "ar"]
+    # mode = "client"                         # peer by default; client listens on nothing
 
     [services.fitter]                         # the fitter's options, by name
     warp = "gpu"
@@ -19,6 +21,12 @@ names (``services/<name>/options.py``), checked like the command line.
 ``aamtrack run --stack FILE`` runs every service of the file on this machine;
 with ``--host NAME`` only that host's, connected to the file's router;
 ``aamtrack service NAME --stack FILE --host HOST`` runs one.
+
+In ``peer`` mode a host's services listen on its ``address`` (any port) and the router
+introduces the peers of every host to each other, which then connect directly: a peer
+that listens nowhere is reached by no peer of another host. In ``client`` mode they listen
+on nothing and everything goes through the router. ``keys`` (relative to the stack file's
+folder) is the deployment's keys file (:mod:`services.bus.trust`): every host needs it.
 """
 
 from __future__ import annotations
@@ -63,6 +71,8 @@ class StackFile:
     router: str
     hosts: dict[str, Host]
     services: dict[str, Any] = field(default_factory=dict)
+    keys: str = ""
+    """The keys file, resolved against the stack file's folder (empty: none named)."""
 
     def host(self, name: str) -> Host:
         if name not in self.hosts:
@@ -77,11 +87,20 @@ class StackFile:
         return {name: self.services[name] for name in SERVICES if name in wanted}
 
     def bus(self, host: str) -> BusOptions:
-        """The bus options of the services of ``host``: connected to the router."""
+        """The bus options of the services of ``host``: connected to the router, listening
+        on the host's address in peer mode, with the keys file."""
         h = self.host(host)
         if not self.router:
             raise OptionError("the stack file's [bus] gives no router for its hosts to join")
-        return BusOptions(self.stream, h.mode, connect=(self.router,))
+        listen = (f"tcp/{h.address or '0.0.0.0'}:0",) if h.mode == "peer" else ()
+        return BusOptions(self.stream, h.mode, listen=listen, connect=(self.router,),
+                          keys=self.keys)
+
+    def elsewhere(self, host: str) -> dict[str, tuple[str, ...]]:
+        """The services of every other host, by host."""
+        self.host(host)
+        return {name: h.services for name, h in self.hosts.items()
+                if name != host and h.services}
 
 
 def _table(data: dict[str, Any], key: str, where: str) -> dict[str, Any]:
@@ -134,4 +153,7 @@ def read_stack_file(path: str | Path) -> StackFile:
         for name in SERVICES if name in named
     }
     stream = str(bus.get("stream", DEFAULT_STREAM))
-    return StackFile(stream, str(bus.get("router", "")), hosts, services)
+    keys = str(bus.get("keys", ""))
+    if keys:
+        keys = str(Path(path).parent / Path(keys).expanduser())
+    return StackFile(stream, str(bus.get("router", "")), hosts, services, keys)

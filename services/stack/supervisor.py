@@ -1,10 +1,12 @@
 """Service processes: started afresh, restarted when they die, stopped together.
 
 Every service runs in a new Python process (``python -m
-services.stack.child MODULE NICE ARGV...``: fork and exec at once, never a
+services.stack.child MODULE NICE KEYFD ARGV...``: fork and exec at once, never a
 bare fork, since a forked copy of a process holding a Zenoh session or a GL
 context hangs or publishes nothing). The child imports the service module and
-calls its ``main(argv)``.
+calls its ``main(argv)``. Its keys (:class:`proto.auth.Keyring`) come through a pipe
+whose read end is its file ``KEYFD``, written and closed by the launcher as the process
+starts: never in its environment or on its command line.
 
 Each service gets a process group of its own, so that a terminal's Ctrl-C
 reaches the launcher alone: a service still importing its modules cannot die
@@ -33,6 +35,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import services
+from proto.auth import Keyring
 from services.bus.process import ENV_PARENT, ENV_RESTARTS
 
 log = logging.getLogger("aamtrack.launcher")
@@ -40,9 +43,12 @@ ROOT = str(Path(services.__file__).resolve().parent.parent)
 """The folder holding the ``services`` package, put first on the children's path."""
 
 
-def child_command(module: str, argv: Sequence[str], nice: int = 0) -> list[str]:
-    """The command line of a service process running ``module.main(argv)``."""
-    return [sys.executable, "-m", "services.stack.child", module, str(nice), *argv]
+def child_command(module: str, argv: Sequence[str], nice: int = 0, key_fd: int | None = None
+                  ) -> list[str]:
+    """The command line of a service process running ``module.main(argv)`` (its keys in the
+    inherited pipe ``key_fd``, when given)."""
+    fd = "-" if key_fd is None else str(key_fd)
+    return [sys.executable, "-m", "services.stack.child", module, str(nice), fd, *argv]
 
 
 def child_environment(extra: Mapping[str, str]) -> dict[str, str]:
@@ -69,6 +75,8 @@ class ServiceSpec:
     nice : int
         Niceness added to the process: best-effort stages (overlays, logging)
         yield the CPU to the tracking path.
+    keyring : Keyring, optional
+        The keys handed to the process (through a pipe; none when empty).
     """
 
     name: str
@@ -76,6 +84,7 @@ class ServiceSpec:
     argv: list[str] = field(default_factory=list)
     restart: bool = True
     nice: int = 0
+    keyring: Keyring = field(default_factory=Keyring)
 
 
 @dataclass
@@ -122,10 +131,24 @@ class Supervisor:
 
     def _start(self, m: _Managed) -> None:
         env = {**self._env, ENV_RESTARTS: str(m.restarts), ENV_PARENT: str(os.getpid())}
-        m.process = subprocess.Popen(
-            child_command(m.spec.module, m.spec.argv, m.spec.nice), env=child_environment(env),
-            stdin=subprocess.DEVNULL, process_group=0,
-        )
+        keys = m.spec.keyring.to_bytes() if m.spec.keyring else b""
+        read_end, write_end = os.pipe() if keys else (None, None)
+        try:
+            m.process = subprocess.Popen(
+                child_command(m.spec.module, m.spec.argv, m.spec.nice, read_end),
+                env=child_environment(env), stdin=subprocess.DEVNULL, process_group=0,
+                pass_fds=() if read_end is None else (read_end,),
+            )
+        except BaseException:
+            if write_end is not None:
+                os.close(write_end)
+            raise
+        finally:
+            if read_end is not None:
+                os.close(read_end)
+        if write_end is not None:
+            with os.fdopen(write_end, "wb") as pipe:  # a few hundred bytes: never blocks
+                pipe.write(keys)
         m.exitcode, m.restart_at = None, None
         log.debug("started %s (pid %s)", m.spec.name, m.process.pid)
 

@@ -1,45 +1,102 @@
-"""proto.auth: a run signs its frames and its end of stream; nothing else passes for them."""
+"""proto.auth: every message signed by its producer's key, over the header and the body as it
+travels; nothing else passes for it."""
 
 from __future__ import annotations
 
 from dataclasses import replace
 
+import msgpack
 import numpy as np
 import pytest
 
 from proto import EndOfStream, Frame, Header, decode, encode
-from proto.auth import is_signed, signature, signed
+from proto.auth import KEY_BYTES, Keyring, encode_signed, is_signed
 from proto.limits import ProtoError
 
-KEY = bytes(range(16))
+KEY = bytes(range(KEY_BYTES))
+
+
+def _header(index: int = 42) -> Header:
+    return Header("cam0", index, 1_700_000_000_000_000_000, "source", 1_700_000_000_005_000_000,
+                  "run-8f3a2c", 1_680_000_000)
 
 
 def _eos(total: int = 43) -> EndOfStream:
-    header = Header("cam0", 42, 1_700_000_000_000_000_000, "source", 1_700_000_000_005_000_000,
-                    "run-8f3a2c", 1_680_000_000)
-    return EndOfStream(header, total_frames=total, reason="end_of_file")
+    return EndOfStream(_header(), total_frames=total, reason="end_of_file")
 
 
-def test_a_signed_message_passes_and_survives_the_wire() -> None:
-    eos = signed(KEY, _eos())
-    assert len(eos.header.auth) == 32 and is_signed(KEY, eos)
-    assert is_signed(KEY, decode(encode(eos), "eos"))
-    # A test vector for other implementations (proto/README.md, "Signatures").
-    assert signature(KEY, _eos()) == eos.header.auth == signature(KEY, decode(encode(eos)))
+def _frame(image: np.ndarray) -> Frame:
+    return Frame.from_array(_header(), image)
 
 
-def test_what_the_signature_covers_cannot_be_changed() -> None:
-    eos = signed(KEY, _eos())
-    assert not is_signed(KEY, _eos())  # unsigned
-    assert not is_signed(bytes(16), eos)  # another run's key
-    assert not is_signed(KEY, replace(eos, total_frames=1))
-    assert not is_signed(KEY, replace(eos, header=replace(eos.header, frame_index=0)))
-    frame = signed(KEY, Frame.from_array(_eos().header, np.zeros((24, 32, 3), np.uint8)))
-    assert is_signed(KEY, frame)
-    bigger = Frame.from_array(frame.header, np.zeros((48, 64, 3), np.uint8))
-    assert not is_signed(KEY, bigger)  # the signed header on a frame of another size
+def test_a_signed_message_decodes_to_itself_and_passes() -> None:
+    payload = encode_signed(KEY, _eos())
+    eos = decode(payload, "eos")
+    assert len(eos.header.auth) == 32 and is_signed(KEY, payload, eos)
+    assert replace(eos, header=replace(eos.header, auth="")) == _eos()
+    assert payload == encode(eos)  # laid out as the codec lays out any message
+    # A test vector for other implementations.
+    assert eos.header.auth == "a25c4a995829fe717dafcdf83e244dd3"
 
 
-def test_a_malformed_signature_is_refused_on_decode() -> None:
+def test_the_signature_covers_the_pixels_their_shape_and_channels() -> None:
+    image = np.arange(24 * 32 * 3, dtype=np.uint8).reshape(24, 32, 3)
+    payload = encode_signed(KEY, _frame(image))
+    frame = decode(payload, "frame")
+    assert is_signed(KEY, payload, frame)
+    auth = frame.header.auth
+
+    def resigned_header_on(other: Frame) -> bytes:
+        """``other`` with the signed frame's header (and signature): the replay of issue 37."""
+        return encode(replace(other, header=replace(other.header, auth=auth)))
+
+    black = image.copy()
+    black[5, 7, 1] ^= 1  # one bit of one pixel
+    for other in (_frame(black), _frame(image.reshape(48, 16, 3)),
+                  _frame(np.ascontiguousarray(image[:, :, 0]))):
+        forged = resigned_header_on(other)
+        assert not is_signed(KEY, forged, decode(forged, "frame"))
+
+
+def test_another_key_a_cut_signature_or_a_changed_header_does_not_pass() -> None:
+    payload = encode_signed(KEY, _eos())
+    eos = decode(payload, "eos")
+    assert not is_signed(bytes(KEY_BYTES), payload, eos)  # another run's key
+    unsigned = encode(_eos())
+    assert not is_signed(KEY, unsigned, decode(unsigned))
+    for changed in (replace(eos, total_frames=1),
+                    replace(eos, header=replace(eos.header, frame_index=0)),
+                    replace(eos, header=replace(eos.header, producer="fitter"))):
+        forged = encode(changed)
+        assert not is_signed(KEY, forged, decode(forged))
     with pytest.raises(ProtoError, match="header.auth: expected empty or 32 lower-case hex"):
-        replace(_eos().header, auth="xyz")
+        replace(eos.header, auth=eos.header.auth[:31])  # a truncated signature is malformed
+
+
+def test_a_header_re_encoded_otherwise_does_not_pass() -> None:
+    """The header must be the canonical encoding: the bytes hashed are the bytes read."""
+    payload = encode_signed(KEY, _eos())
+    obj = msgpack.unpackb(payload)
+    obj["header"] = dict(reversed(list(obj["header"].items())))  # same fields, other order
+    obj["header"] = {"schema_version": obj["header"].pop("schema_version"),
+                     "kind": obj["header"].pop("kind")} | obj["header"]
+    other = msgpack.packb(obj)
+    assert other != payload
+    assert not is_signed(KEY, other, decode(other))
+
+
+def test_a_keyring_gives_each_service_its_own_key_and_the_keys_of_what_it_reads() -> None:
+    ring = Keyring.generate(["source", "fitter", "pose"])
+    pose = ring.for_service("pose", ["fitter"])
+    assert pose.signer == "pose" and set(pose.keys) == {"pose", "fitter"}
+    assert Keyring.from_bytes(pose.to_bytes()) == pose
+    source = ring.for_service("source", [])
+    payload = source.encode(_eos())
+    assert ring.problem(payload, decode(payload)) == ""
+    assert pose.problem(payload, decode(payload)) == "not a service of the run"
+    assert Keyring.generate(["source"]).problem(payload, decode(payload)) == "bad signature"
+    assert ring.problem(encode(_eos()), _eos()) == "unsigned"
+    with pytest.raises(ValueError, match="not an aamtrack-keyring-1 keyring"):
+        Keyring.from_bytes(b'{"keys": {}}')
+    with pytest.raises(ValueError, match="is not 32 bytes"):
+        Keyring({"source": b"short"})

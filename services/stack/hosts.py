@@ -1,0 +1,45 @@
+"""One host of a stack spread over several: its keys, and the other hosts it waits for."""
+
+from __future__ import annotations
+
+from proto.auth import Keyring
+from services.bus.trust import read_keys_file
+from services.stack import preflight
+from services.stack.options import StackOptions
+
+
+def deployment_keys(opts: StackOptions) -> Keyring:
+    """The keys of a stack spread over several hosts: the keys file its stack file names
+    (empty on one host, where the launcher makes the run's).
+
+    Raises
+    ------
+    preflight.PreflightError
+        When there is none, or it cannot be used.
+    """
+    if opts.bus is None:
+        return Keyring()
+    if not opts.bus.keys:
+        raise preflight.PreflightError(
+            "the stack file names no keys file ([bus] keys = FILE): make one with `aamtrack "
+            "keys FILE` and copy it to every host (mode 600), as its certificates")
+    try:
+        return read_keys_file(opts.bus.keys)
+    except ValueError as exc:
+        raise preflight.PreflightError(str(exc)) from None
+
+
+def not_joined(heard: set[str], opts: StackOptions) -> dict[str, list[str]]:
+    """The other hosts of a stack file some of whose services were never ``heard`` from (a
+    signed status), with those services."""
+    missing = {host: [s for s in names if s not in heard]
+               for host, names in opts.elsewhere.items()}
+    return {host: names for host, names in missing.items() if names}
+
+
+def never_joined(missing: dict[str, list[str]], opts: StackOptions) -> str:
+    """The run's outcome when hosts never joined: which, and where they should be."""
+    hosts = "; ".join(f"host {h} ({', '.join(n)})" for h, n in missing.items())
+    router = ", ".join(opts.bus.connect) if opts.bus else "the router"
+    return (f"{hosts} of the stack file never joined: not heard from within "
+            f"{opts.launch.start_timeout:g} s (is it running, and can it reach {router}?)")
