@@ -48,3 +48,9 @@ to the person (:class:`aamcore.pose.calibrate.OnlineCalibration`)."""
 POSE_ESTIMATOR = "contour"
 """The head-pose estimator of the stack and the library: it holds to +-60 degrees of yaw
 where POSIT's jaw points mislead it (``bench/bench_pose_yaw.py``)."""
+MAX_FACES = 64
+"""The most faces tracked in a frame (a frame's fits count at most so many, as
+``proto.messages.MAX_FACES`` says on the wire)."""
+EXPRESSION_HOLD = 3
+"""Classified frames a new expression label leads before it is shown (100 ms at 30 fps),
+in the library and the stack alike: a label that flickers for a frame or two is not shown."""

@@ -12,8 +12,8 @@ import math
 
 import numpy as np
 
-FAILURE_TESTS = ("auto", "chi2", "eq7.2", "quality")
-"""The failure tests a fitter can be given."""
+from aamcore.fitting.config import FAILURE_TESTS
+
 APPEARANCE_TESTS = ("chi2", "eq7.2")
 """The tests that judge the appearance ``c``."""
 

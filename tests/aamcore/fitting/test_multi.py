@@ -128,7 +128,7 @@ def test_bad_frames_lose_every_face_and_the_next_good_ones_find_them(fitter: Fit
 def test_a_policy_that_cannot_work_is_refused(fitter: Fitter) -> None:
     with pytest.raises(ValueError, match="max_faces"):
         MultiTracker(fitter, max_faces=0)
-    with pytest.raises(ValueError, match="new-face policy"):
+    with pytest.raises(ValueError, match="every 0: must be a whole number from 1"):
         NewFaces(every=0)
     with pytest.raises(ValueError, match="overlap"):
         NewFaces(overlap=0.0)
