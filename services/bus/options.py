@@ -313,7 +313,7 @@ def _regrouped(cls: type[Options], values: dict[str, Any], groups: dict[str, dic
     Raises
     ------
     OptionError
-        Naming the value at fault by its flag (by its key after ``where``, a stack file's).
+        Naming the value at fault by its flag (after ``where``: a stack file's table).
     """
     out = {}
     for name, given in groups.items():
@@ -325,8 +325,7 @@ def _regrouped(cls: type[Options], values: dict[str, Any], groups: dict[str, dic
             if field is None:
                 raise OptionError(f"{where}{exc}") from None
             flag = next((flag_of(e) for e in _entries(cls) if e.name == field), field)
-            shown = f"{field.replace('_', '-')} = " if where else f"{flag} "
-            raise OptionError(f"{where}{shown}{exc.value!r}: {exc.problem}", field) from None
+            raise OptionError(f"{where}{flag} {exc.value!r}: {exc.problem}", field) from None
     return out
 
 
@@ -359,6 +358,8 @@ def options_of_mapping(cls: type[Options], data: dict[str, Any], where: str) -> 
         Naming ``where`` for an unknown key or a value of the wrong type.
     """
     entries = {e.name: e for e in _entries(cls)}
+    entries |= {flag_of(e)[2:].replace("-", "_"): e for e in entries.values()
+                if flag_of(e).startswith("--")}  # a value may be named by its flag too
     values: dict[str, Any] = {}
     groups: dict[str, dict[str, Any]] = {}
     for key, value in data.items():
@@ -367,7 +368,8 @@ def options_of_mapping(cls: type[Options], data: dict[str, Any], where: str) -> 
             close = difflib.get_close_matches(name, entries, 1)
             hint = f"did you mean {close[0].replace('_', '-')}? " if close else ""
             raise OptionError(f"{where}: unknown option {key!r}; {hint}options are "
-                              f"{', '.join(sorted(entries))}", name)
+                              f"{', '.join(sorted({e.name for e in entries.values()}))}",
+                              name)
         kind = entries[name].kind
         if kind is tuple:
             value = tuple(value) if isinstance(value, list) else (value,)
@@ -375,11 +377,11 @@ def options_of_mapping(cls: type[Options], data: dict[str, Any], where: str) -> 
             value = float(value)
         elif not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
             raise OptionError(f"{where}: {key} = {value!r} is not a {kind.__name__}", name)
-        group = entries[name].group
-        if group is None:
-            values[name] = value
+        entry = entries[name]
+        if entry.group is None:
+            values[entry.name] = value
         else:
-            groups.setdefault(group, {})[name] = value
+            groups.setdefault(entry.group, {})[entry.name] = value
     values.update(_regrouped(cls, values, groups, f"{where}: "))
     try:
         return cls(**values)

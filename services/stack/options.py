@@ -236,3 +236,11 @@ def parse_run_args(argv: Sequence[str]) -> StackOptions:
     parser = argparse.ArgumentParser(prog="aamtrack run")
     add_run_options(parser)
     return stack_options(parser.parse_args(list(argv)))
+
+
+def tracker_config(stack: StackOptions) -> TrackerConfig:
+    """The tracker's configuration a run carries out: the fitter's, with the expression
+    service's label hold (what :class:`aamcore.tracker.FaceTracker` takes for the same
+    run)."""
+    return stack.options("fitter").tracking.replace(expression_hold=stack.options("expression")
+                                                    .hold)
