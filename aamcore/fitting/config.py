@@ -107,6 +107,9 @@ class Refit(Settings):
                            "NME) is above this (inf: never)", metavar="SCORE")
     moving: float = setting(math.inf, "refit when the face moved more than this share of its "
                             "width since the last frame (inf: never)", low=0, metavar="SHARE")
+    disagreement: float = setting(math.inf, "refit a tracked fit whose two fits (from the last "
+                                  "landmarks, and afresh) lay further apart than this share "
+                                  "of the eye distance (inf: never)", low=0, metavar="SHARE")
     failed: bool = setting(False, "refit from the last good fit's landmarks when tracking "
                            "fails, before a detection")
     then_track: bool = setting(False, "track once more from a refit kept (the fern stages "
@@ -115,7 +118,7 @@ class Refit(Settings):
     @property
     def never(self) -> bool:
         return (self.every <= 0 and self.score == math.inf and self.moving == math.inf
-                and not self.failed)
+                and self.disagreement == math.inf and not self.failed)
 
 
 NEVER = Refit()

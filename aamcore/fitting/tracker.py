@@ -155,6 +155,7 @@ class Tracker:
             step = np.linalg.norm(tracked.points.mean(axis=0) - last.points.mean(axis=0))
             due = ((policy.every > 0 and self._since >= policy.every)
                    or tracked.score > policy.score
+                   or tracked.disagreement > policy.disagreement
                    or step > policy.moving * np.ptp(last.points[:, 0]))
         else:
             due = policy.failed
