@@ -35,7 +35,8 @@ def test_the_thesis_profile_runs_end_to_end_and_the_library_agrees(
     opts = stack_options(single_face, ar=False, record=str(rec), warp="cpu", profile="thesis",
                          classifier=None)
     fitter, pose = opts.services["fitter"], opts.services["pose"]
-    assert (fitter.algorithm, fitter.failure_test, pose.estimator) == (
+    fitting = fitter.tracking.fitting
+    assert (fitting.algorithm, fitting.failure_test, pose.estimator) == (
         "fixed-jacobian", "eq7.2", "posit")
     opts = prepared(opts)
     # the launcher found (or trained) the thesis classifier of these fits
@@ -57,7 +58,8 @@ def test_the_thesis_profile_runs_end_to_end_and_the_library_agrees(
     assert with_face and all(f.appearance is not None and f.warp_path == "cpu"
                              for f in with_face)
     assert max(f.appearance.iterations for f in with_face) >= 1
-    tracker = FaceTracker(model=model_path, classifier=thesis_classifier, profile="thesis")
+    tracker = FaceTracker(model=model_path, classifier=thesis_classifier, profile="thesis",
+                          warp="cpu")
     assert profile_named("thesis").fitter == tracker.config.fitting
     # The services run on one BLAS thread: so does the library here, else the AAM's
     # iterations may differ in the last bits (0.004 px seen with two threads).
