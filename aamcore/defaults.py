@@ -47,10 +47,12 @@ POSE_ESTIMATORS = ("contour", "posit", "contour+calib")
 matches the jaw landmarks to the outline seen (:class:`aamcore.pose.robust.ContourPose`),
 ``posit`` is the thesis's POSIT without the jaw, ``contour+calib`` adapts the head model
 to the person (:class:`aamcore.pose.calibrate.OnlineCalibration`)."""
-EXPRESSION_HOLD = 3
-"""Classified frames a new expression label leads before the stack shows it (100 ms at
-30 fps): a label that flickers for a frame or two is not shown
-(:class:`aamcore.expression.recogniser.ExpressionRecogniser`'s ``hold``)."""
 POSE_ESTIMATOR = "contour"
 """The head-pose estimator of the stack and the library: it holds to +-60 degrees of yaw
 where POSIT's jaw points mislead it (``bench/bench_pose_yaw.py``)."""
+MAX_FACES = 64
+"""The most faces tracked in a frame (a frame's fits count at most so many, as
+``proto.messages.MAX_FACES`` says on the wire)."""
+EXPRESSION_HOLD = 3
+"""Classified frames a new expression label leads before it is shown (100 ms at 30 fps),
+in the library and the stack alike: a label that flickers for a frame or two is not shown."""

@@ -63,13 +63,15 @@ class Profile:
                              f"of {EXPRESSION_FEATURES}")
 
     def model_path(self, max_images: int = defaults.MODEL_UPDATE_IMAGES,
-                   limit: int | None = None) -> Path:
-        """The profile's fitting model: the default recipe with its update method, trained
-        and cached on first use."""
+                   limit: int | None = None, update_method: str | None = None) -> Path:
+        """The profile's fitting model: the default recipe with its update method (or
+        ``update_method``), trained and cached on first use. The one door from running code
+        to training: the library, the services and the commands that run the model ask it
+        here."""
         from aamcore.fitting.training.prepare import default_model_path
 
         return default_model_path(max_images=max_images, limit=limit,
-                                  update_method=self.update_method)
+                                  update_method=update_method or self.update_method)
 
     def classifier_path(self, model_path: str | Path, algorithm: str | None = None) -> Path:
         """The profile's expression classifier for the fits of ``model_path`` by

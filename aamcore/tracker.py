@@ -19,6 +19,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -27,35 +28,35 @@ from aamcore.detection.haar import HaarFaceDetector
 from aamcore.expression.classifier_file import ExpressionClassifier
 from aamcore.expression.recogniser import ExpressionRecogniser, Recognition
 from aamcore.face_result import NO_FACE, FaceResult, PoseParts, joined_result, result_of
-from aamcore.fitting.config import FITTER, FitterConfig
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
-from aamcore.fitting.multi import MultiTracker, NewFaces, TrackedFace
+from aamcore.fitting.multi import MultiTracker, TrackedFace
 from aamcore.fitting.result import AAMFit, LandmarkFit, appearance_of
-from aamcore.fitting.search import SearchSchedule
-from aamcore.fitting.tracker import Refit
+from aamcore.fitting.warps import FitterWarp
 from aamcore.io.video import FALLBACK_FPS, frame_rate
+from aamcore.per_face import PerFace
 from aamcore.pose import IntrinsicsError, PoseError
 from aamcore.pose.estimator import Cameras, HeadPoseEstimator, HeadPoseTracker
-from aamcore.profiles import profile_named
+from aamcore.profiles import Profile, profile_named
 from aamcore.smoothing import LandmarkSmoother
+from aamcore.tracker_config import TRACKER, TrackerConfig
 
-__all__ = ["NO_FACE", "FaceResult", "FaceTracker", "PoseParts", "joined_result", "result_of"]
+__all__ = ["NO_FACE", "FaceResult", "FaceTracker", "PoseParts", "TrackerConfig",
+           "joined_result", "result_of"]
 
 
-def _model(model: str | Path | FittingModel | None) -> tuple[FittingModel, Path | None]:
-    """The fitting model and its file (None when given loaded)."""
+def _model(model: str | Path | FittingModel | None, profile: Profile
+           ) -> tuple[FittingModel, Path | None]:
+    """The fitting model (the profile's, trained on first use, if None) and its file (None
+    when given loaded)."""
     if isinstance(model, FittingModel):
         return model, None
-    if model is None:
-        from aamcore.fitting.training.prepare import default_model_path
-
-        model = default_model_path()
-    return FittingModel.load(model), Path(model)
+    path = Path(model) if model is not None else profile.model_path()
+    return FittingModel.load(path), path
 
 
 def _recogniser(classifier: str | Path | ExpressionClassifier | None, model: FittingModel,
-                path: Path | None, algorithm: str, smooth: int, hold: int = 0
+                path: Path | None, algorithm: str, smooth: int, hold: int
                 ) -> ExpressionRecogniser | None:
     """The expression recogniser of a classifier for the fits of ``model`` by ``algorithm``,
     or None without one.
@@ -78,89 +79,100 @@ def _recogniser(classifier: str | Path | ExpressionClassifier | None, model: Fit
     return ExpressionRecogniser(classifier, smooth, hold=hold)
 
 
+def _configured(config: TrackerConfig | str | Path | FittingModel | None,
+                profile: Profile | None, settings: dict[str, Any]) -> TrackerConfig:
+    """The configuration asked for: ``config`` (or the defaults with the profile's fitting),
+    the values named in ``settings`` changed."""
+    if not isinstance(config, TrackerConfig | None):
+        raise TypeError(f"FaceTracker(config): a TrackerConfig, not {type(config).__name__} "
+                        "(give a model as model=...)")
+    if config is None:
+        config = TRACKER if profile is None else TRACKER.replace(fitting=profile.fitter)
+    return config.with_values(**settings) if settings else config
+
+
 class FaceTracker:
-    """Landmarks, head pose and expression of the face in each frame of a video.
+    """Landmarks, head pose and expression of the faces in each frame of a video.
+
+    ``FaceTracker()`` runs what the stack runs by default: the default model and its
+    expression classifier (trained and cached on first use), the default tracking
+    (:data:`~aamcore.tracker_config.TRACKER`), smoothing and the label hold.
 
     Parameters
     ----------
+    config : TrackerConfig, optional
+        How faces are tracked (:class:`~aamcore.tracker_config.TrackerConfig`; the
+        defaults, with the profile's fitting, if None).
     model : path or FittingModel, optional
-        The fitting model; the profile's (or the default) model, trained and cached on
-        first use, if None.
+        The fitting model; the profile's model, trained and cached on first use, if None.
     classifier : path, ExpressionClassifier or False, optional
-        Expression classifier for the model's fits
-        (:func:`aamcore.expression.training.classifier_path` makes one). None: the
-        profile's classifier where a profile is named (trained and cached on first
-        use), else no expression; False: no expression. A classifier made for other
-        fits (another model or algorithm) is refused
-        (:class:`~aamcore.expression.AAMMismatchError`).
+        Expression classifier for the model's fits. None: the profile's classifier for a
+        model given by path (trained and cached on first use; a loaded model gets none);
+        False: no expression. A classifier made for other fits (another model or
+        algorithm) is refused (:class:`~aamcore.expression.AAMMismatchError`).
     camera : str or float, optional
         A calibration file, or a horizontal field of view in degrees
         (:data:`aamcore.defaults.FOV_DEG` if None).
     profile : str, optional
-        A pipeline of :data:`aamcore.profiles.PROFILES` (``"default"``, ``"thesis"``):
-        its model, fitting, head-pose estimator and expression features, unless given
-        here.
-    algorithm, failure_test : str, optional
-        As :class:`~aamcore.fitting.fitter.Fitter` takes them (the profile's, or
-        :data:`~aamcore.fitting.config.FITTER`'s).
-    smoothing : bool
-        Smooth landmarks and pose over time (One Euro filter, :mod:`aamcore.smoothing`).
+        A pipeline of :data:`aamcore.profiles.PROFILES` (``"default"`` if None): its model,
+        fitting, head-pose estimator and expression features, unless given here.
     pose_estimator : str, optional
-        One of :data:`aamcore.defaults.POSE_ESTIMATORS`
-        (:class:`~aamcore.pose.estimator.HeadPoseEstimator`).
+        One of :data:`aamcore.defaults.POSE_ESTIMATORS` (the profile's if None).
     expression_smooth : int
         Average the expression probabilities over this many classified frames (the
         expression service's ``--smooth``; 1: none).
-    expression_hold : int
-        Classified frames a new expression label must lead before it replaces the one
-        shown (the expression service's ``--hold``, on in the stack,
-        :data:`~aamcore.expression.recogniser.STACK_HOLD`; 0: none).
-    fitter : FitterConfig, optional
-        The whole fitting configuration (``algorithm`` and ``failure_test`` override it).
-    search : SearchSchedule, optional
-        Which frames without a face are searched (the stack's default; for offline
-        work where time is no object, :meth:`SearchSchedule.every_frame`).
-    refit : Refit, optional
-        When a tracked frame is also fitted afresh from the mean face placed on its
-        landmarks (:data:`aamcore.fitting.tracker.DEFAULT_REFIT`, the stack's; ``NEVER``:
-        tracking only).
+    **settings
+        Values of the configuration by their flat names, the short form:
+        ``FaceTracker(max_faces=2, smoothing=False, refit_every=6)``
+        (:meth:`~aamcore.settings.Settings.settings` lists them).
+
+    Raises
+    ------
+    ConfigError
+        For a setting it does not know or a value it does not accept, naming it.
     """
 
-    def __init__(self, model: str | Path | FittingModel | None = None,
+    def __init__(self, config: TrackerConfig | None = None, *,
+                 model: str | Path | FittingModel | None = None,
                  classifier: str | Path | ExpressionClassifier | bool | None = None,
-                 camera: str | float | None = None, *, profile: str | None = None,
-                 algorithm: str | None = None, failure_test: str | None = None,
-                 smoothing: bool = False, pose_estimator: str | None = None,
-                 expression_smooth: int = 1, expression_hold: int = 0,
-                 fitter: FitterConfig | None = None,
-                 search: SearchSchedule | None = None, refit: Refit | None = None,
-                 max_faces: int = 1, new_faces: NewFaces | None = None) -> None:
-        chosen = profile_named(profile) if profile else None
-        config = fitter or (chosen.fitter if chosen else FITTER)
-        given = {"algorithm": algorithm, "failure_test": failure_test}
-        config = replace(config, **{k: v for k, v in given.items() if v is not None})
+                 camera: str | float | None = None, profile: str | None = None,
+                 pose_estimator: str | None = None, expression_smooth: int = 1,
+                 **settings: Any) -> None:
+        chosen = profile_named(profile or "default")
+        config = _configured(config, profile_named(profile) if profile else None, settings)
         self.config = config
         self.profile = chosen
-        if model is None and chosen is not None:
-            model = chosen.model_path()
-        self.model, path = _model(model)
-        if classifier is None and chosen is not None and path is not None:
-            classifier = chosen.classifier_path(path, config.algorithm)
+        self.model, path = _model(model, chosen)
+        algorithm = config.fitting.algorithm
+        if classifier is None and path is not None:
+            classifier = chosen.classifier_path(path, algorithm)
         self.expression = _recogniser(classifier or None, self.model, path,  # type: ignore
-                                      config.algorithm, expression_smooth, expression_hold)
+                                      algorithm, expression_smooth, config.expression_hold)
         """The first face's expression recogniser (None without a classifier); each face
         has its own, made like it."""
-        self.tracker = MultiTracker(Fitter.from_config(self.model, config), HaarFaceDetector(),
-                                    max_faces, search, refit, new_faces)
+        self.warp = FitterWarp(self.model.aam, config.warp)  # type: ignore[arg-type]
+        """Where the fitter's warps run, started at the first warp (:meth:`close` ends it)."""
+        self.tracker = MultiTracker.configured(Fitter(self.model, config.fitting, self.warp),
+                                               config, HaarFaceDetector())
         calibration = camera if isinstance(camera, str | Path) else None
         fov = float(camera) if isinstance(camera, int | float) else defaults.FOV_DEG
         self._cameras = Cameras(fov, str(calibration) if calibration else None)
-        self._method = pose_estimator or (chosen.pose_estimator if chosen
-                                          else defaults.POSE_ESTIMATOR)
-        self._smoothing = smoothing
-        self._faces: dict[int, _FaceState] = {}
-        self._state(0)  # a camera file that cannot be read is refused here, not at a face
+        self._method = pose_estimator or chosen.pose_estimator
+        self._smoothing = config.smoothing
+        # the first state holds the first recogniser; the camera file is read here
+        self._faces = PerFace(lambda: self._new_state(fresh=True), _FaceState.reset,
+                              self._new_state(fresh=False), config.new_faces.forget_frames)
         self.frames = 0
+
+    def close(self) -> None:
+        """End the GL warp worker if one was started (a later warp starts it again)."""
+        self.warp.close()
+
+    def __enter__(self) -> FaceTracker:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
     @property
     def pose_method(self) -> str:
@@ -176,30 +188,27 @@ class FaceTracker:
         """The expression classes (none without a classifier)."""
         return () if self.expression is None else tuple(self.expression.classifier.class_names)
 
+    def _new_state(self, fresh: bool) -> _FaceState:
+        """A face's smoothing, pose and expression state: with :attr:`expression` itself, or
+        (``fresh``) a recogniser made like it."""
+        recogniser = self.expression
+        if recogniser is not None and fresh:
+            recogniser = recogniser.fresh()
+        pose = HeadPoseTracker(HeadPoseEstimator(self._cameras, method=self._method),
+                               self._smoothing)
+        return _FaceState(pose, LandmarkSmoother() if self._smoothing else None, recogniser)
+
     def _state(self, face_id: int) -> _FaceState:
-        """The smoothing, pose and expression state of a face; face 0's also hears of the
+        """The state of a face seen on the frame being processed; face 0's also hears of the
         frames without a tracked face (a failed fit, ``face_id`` -1), as the services'
         first face does."""
-        key = max(face_id, 0)
-        state = self._faces.get(key)
-        if state is None:
-            recogniser = self.expression
-            if recogniser is not None and any(other.expression is recogniser
-                                              for other in self._faces.values()):
-                recogniser = recogniser.fresh()
-            pose = HeadPoseTracker(HeadPoseEstimator(self._cameras, method=self._method),
-                                   self._smoothing)
-            state = _FaceState(pose, LandmarkSmoother() if self._smoothing else None, recogniser)
-            self._faces[key] = state
-        return state
+        return self._faces.of(max(face_id, 0), self.frames - 1)
 
     def reset(self) -> None:
         """Forget the faces: the next frame starts from a detection."""
         self.tracker.reset()
-        for state in self._faces.values():
-            state.reset()
-        if self.tracker.max_faces > 1:
-            self._faces.clear()
+        self._faces.clear()
+        self._faces.reset(self._faces.first)
 
     def process(self, frame: np.ndarray, timestamp: float | None = None) -> FaceResult:
         """The result for one frame (BGR or grey uint8), at ``timestamp`` seconds: of its
@@ -229,17 +238,14 @@ class FaceTracker:
                               None, None, (), None, found.reason if found else "")]
 
     def _forget_gone(self, tracked: list[TrackedFace]) -> None:
-        """Drop the state of faces no longer tracked (several faces only: their ids are not
-        given again once the regain window has passed)."""
+        """The faces remembered but not in this frame restart their pose and smoothing when
+        they come back (they are forgotten by :class:`~aamcore.per_face.PerFace`'s rule)."""
         if self.tracker.max_faces == 1:
             return
         here = {face.face_id for face in tracked}
-        regainable = {g.face_id for g in self.tracker.ids.lost}
-        for key in [k for k in self._faces if k not in here]:
-            if key in regainable:
-                self._faces[key].lost()
-            else:
-                self._faces.pop(key).reset()
+        for key in self._faces.ids():
+            if key not in here:
+                self._faces.known(key).lost()  # type: ignore[union-attr]
 
     def _result(self, index: int, t: float, frame: np.ndarray, fit: LandmarkFit,
                 state: _FaceState, face_id: int) -> FaceResult:

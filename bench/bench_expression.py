@@ -64,7 +64,7 @@ def video_check(model: Path, classifier: Path, video: Path, smooth: int = 5) -> 
 
     out: dict[str, object] = {"video": video.name}
     for n in (1, smooth):
-        tracker = FaceTracker(model, classifier, smoothing=True, expression_smooth=n)
+        tracker = FaceTracker(model=model, classifier=classifier, expression_smooth=n)
         results = list(tracker.process_video(video))
         labels = [r.expression for r in results if r.expression is not None]
         seconds = max(len(labels), 1) / 30.0

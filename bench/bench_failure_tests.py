@@ -14,6 +14,14 @@ Run: ``PYTHONPATH=. .venv/bin/python bench/bench_failure_tests.py [--model FILE]
 2. The same Haar fits of the AAM methods judged by chi2 and eq. 7.2.
 3. ``videos/single_face.mp4`` tracked: flagged frames and re-detections per
    algorithm and test.
+4. Tracking's disagreement as a cue of failure: the default method tracks by the mean of
+   a fit from the last landmarks and one afresh from the mean face placed on them; how far
+   apart the two lay (``LandmarkFit.disagreement``) against the quality score, on the
+   tracking fits of part 1 (from the Haar fit's landmarks: good; from far-off starts: mostly
+   bad): ROC AUC of each for telling NME < 0.08 from NME > 0.15, and what a disagreement
+   threshold keeping 99 % of the good ones rejects of the bad ones the quality test kept.
+
+``--quality-only`` runs parts 1 and 4.
 """
 
 from __future__ import annotations
@@ -68,13 +76,16 @@ def face_rows(fitter: Fitter, set_name: str, sample, detector, rng) -> list[tupl
              else fitter.mapping.place(landmark_box(sample.points), "landmarks"))
     cal = calibration_half(f"{set_name}/{sample.image_path.stem}")
     fit = fitter.fit_shape(image, start)
-    rows = [(set_name, cal, "fit", fit.score, nme(fit.points, sample.points, IBUG68))]
+    rows = [(set_name, cal, "fit", fit.score, nme(fit.points, sample.points, IBUG68), np.nan)]
     method = fitter.algorithm
+    tracked = method.track_points(image, fit.points)
+    rows.append((set_name, cal, "track", tracked.score,
+                 nme(tracked.points, sample.points, IBUG68), tracked.disagreement))
     for far in far_starts(start, rng):
         for kind, result in (("far-fit", method.fit_shape(image, far)),
                              ("far-track", method.track_points(image, far))):
             rows.append((set_name, cal, kind, result.score,
-                         nme(result.points, sample.points, IBUG68)))
+                         nme(result.points, sample.points, IBUG68), result.disagreement))
     return rows
 
 
@@ -83,9 +94,10 @@ def no_face_rows(fitter: Fitter, rng) -> list[tuple]:
     frames = [cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames[len(frames) // 2:]]
     owners, shapes = placed_on_no_face(fitter.algorithm.space,
                                        [(g.shape[1], g.shape[0]) for g in frames], 10, rng)
-    return [("no-face", k % 2 == 0, "no-face",
-             fitter.algorithm.track_points(frames[k], shape).score, 1.0)
-            for k, shape in zip(owners, shapes, strict=True)]
+    fits = [fitter.algorithm.track_points(frames[k], shape) for k, shape in zip(owners, shapes,
+                                                                            strict=True)]
+    return [("no-face", k % 2 == 0, "no-face", f.score, 1.0, f.disagreement)
+            for k, f in enumerate(fits)]
 
 
 def print_rates(rows: list[tuple], threshold: float, title: str) -> None:
@@ -111,6 +123,8 @@ def quality_table(model: FittingModel) -> None:
         for sample in test:
             rows += face_rows(fitter, set_name, sample, detector, rng)
     rows += no_face_rows(fitter, rng)
+    tracking = [r for r in rows if r[2] in ("track", "far-track")]
+    rows = [r for r in rows if r[2] != "track"]  # the tables of parts 1-3 as they were
     print_rates(rows, threshold, f"quality test, stored threshold {threshold:.3f} (predicted "
                 f"NME {np.exp(threshold):.3f}), all held-out faces:")
     report = [r for r in rows if not r[1]]
@@ -121,6 +135,29 @@ def quality_table(model: FittingModel) -> None:
     print_rates(report, calibrated,
                 f"threshold {calibrated:.3f} calibrated to keep 99 % of the {len(good_cal)} good "
                 "Haar fits of the calibration half; rates on the other half:")
+    disagreement_table(tracking, threshold)
+
+
+def disagreement_table(rows: list[tuple], threshold: float) -> None:
+    """Part 4: the two tracking fits' disagreement against the quality score as cues."""
+    from sklearn.metrics import roc_auc_score
+
+    score, error, apart = (np.array([r[k] for r in rows]) for k in (3, 4, 5))
+    judged = (error < 0.08) | (error > 0.15)
+    bad = error[judged] > 0.15
+    print(f"\ntracking fits' cues of failure ({int(judged.sum())} tracking fits, {int(bad.sum())} "
+          "with NME > 0.15): ROC AUC for NME > 0.15 against NME < 0.08")
+    for name, cue in (("quality score", score), ("disagreement", apart),
+                      ("both (ranks summed)", np.argsort(np.argsort(score))
+                       + np.argsort(np.argsort(apart)))):
+        print(f"  {name:<22}{roc_auc_score(bad, cue[judged]):>7.3f}")
+    good = apart[judged][~bad]
+    limit = float(np.quantile(good, 0.99))
+    kept_bad = bad & (score[judged] <= threshold)
+    caught = kept_bad & (apart[judged] > limit)
+    print(f"  disagreement above {limit:.3f} (keeps 99 % of the good ones): rejects "
+          f"{np.mean(apart[judged][bad] > limit):.1%} of the bad ones, {int(caught.sum())} of "
+          f"the {int(kept_bad.sum())} the quality test kept")
 
 
 def aam_table(model: FittingModel) -> None:
@@ -165,13 +202,16 @@ def video_table(model: FittingModel) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", type=Path, help="fitting model (default: the default one)")
+    parser.add_argument("--quality-only", action="store_true",
+                        help="parts 1 and 4 only (the default method)")
     args = parser.parse_args()
     cv2.setNumThreads(1)
     model = FittingModel.load(args.model or default_model_path())
     with threadpool_limits(1):
         quality_table(model)
-        aam_table(model)
-        video_table(model)
+        if not args.quality_only:
+            aam_table(model)
+            video_table(model)
 
 
 if __name__ == "__main__":

@@ -148,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     model = FittingModel.load(path)
     if model.occlusion is None:
         sys.exit(f"{path}: this model has no occlusion part: retrain it")
-    tracker = FaceTracker(model, profile="default", classifier=False)
+    tracker = FaceTracker(model=model, classifier=False, smoothing=False)
     report = model.occlusion.report
     print(f"model {Path(path).name}: occlusion test trained on {report.get('faces')} faces, "
           f"{report.get('views')} views; on them {report.get('training_covered_flagged', 0):.1%}"

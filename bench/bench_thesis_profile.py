@@ -65,7 +65,7 @@ def video_rows(model: Path) -> None:
     print(f"\n{'profile':<9}{'frames':>7}{'good':>6}{'reliable pose':>14}{'expression':>11}"
           f"{'AAM it/fit':>11}{'ms/frame':>9}  labels")
     for name in ("default", "thesis"):
-        tracker = FaceTracker(model, profile=name, smoothing=True)
+        tracker = FaceTracker(model=model, profile=name)
         with threadpool_limits(1):
             begun = time.perf_counter()
             results = list(tracker.process_video(video))
@@ -84,7 +84,8 @@ def tracker_iterations(model: Path, profile: str, video: Path) -> list[int]:
     from aamcore.fitting.result import AAMFit
     from aamcore.io.video import video_frames
 
-    tracker = FaceTracker(model, profile=profile, classifier=False)
+    tracker = FaceTracker(model=model, profile=profile, classifier=False,
+                          smoothing=False)
     out = []
     for frame in video_frames(video):
         faces, _ = tracker.tracker.track(frame)

@@ -348,8 +348,9 @@ def main() -> int:
         scheme = model.aam.scheme
         if scheme.n_points != 68:
             raise SystemExit(f"{model_path}: {scheme.name} points; the sequences have iBUG-68")
-        tracker = FaceTracker(model, algorithm=args.algorithm,
-                              refit=NEVER if args.no_refit else None)
+        tracker = FaceTracker(model=model, classifier=False, smoothing=False,
+                              algorithm=args.algorithm,
+                              **({"refit": NEVER} if args.no_refit else {}))
         print(f"{tracker.tracker.fitter.name} ({args.algorithm}), model {model_path.name} "
               f"({model.aam.summary.get('source', '?')}); OMP_NUM_THREADS="
               f"{os.environ.get('OMP_NUM_THREADS')}, one OpenCV thread")

@@ -53,7 +53,8 @@ class Scheme:
 def parse_scheme(text: str) -> Scheme:
     """A scheme from its name: ``track``; ``truth``, ``previous`` (floors), either with
     ``+track``, ``+upright`` or both (``truth+upright+track``); or
-    ``refit:every=N,score=S,moving=M,failed=1,then=1`` (any of them)."""
+    ``refit:every=N,score=S,moving=M,failed=1,then=1`` (any value of
+    :class:`~aamcore.fitting.config.Refit` by its name)."""
     if text == "track":
         return Scheme(text, Refit())
     base, *plus = text.split("+")
@@ -62,18 +63,16 @@ def parse_scheme(text: str) -> Scheme:
     kind, _, options = text.partition(":")
     if kind != "refit" or not options:
         raise ValueError(f"unknown scheme {text!r}")
+    known = {s.name: s for s in Refit.settings()}  # every value of Refit, as declared
+    known["then"] = known["then_track"]
     fields: dict[str, float | bool | int] = {}
     for item in options.split(","):
         key, _, value = item.partition("=")
-        if key == "every":
-            fields["every"] = int(value)
-        elif key in ("score", "moving"):
-            fields[key] = float(value)
-        elif key in ("failed", "then"):
-            fields["failed" if key == "failed" else "then_track"] = value not in ("0", "")
-        else:
+        if key not in known:
             raise ValueError(f"scheme {text!r}: unknown option {key!r}")
-    return Scheme(text, Refit(**fields))  # type: ignore[arg-type]
+        s = known[key]
+        fields[s.name] = value not in ("0", "") if s.kind is bool else s.kind(value)
+    return Scheme(text, Refit().with_values(**fields))
 
 
 @dataclass(frozen=True)

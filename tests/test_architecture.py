@@ -69,7 +69,7 @@ def test_every_package_folder_is_documented() -> None:
 
 
 LAYERS = (
-    ("config", "defaults", "progress", "reproducible", "smoothing"),
+    ("config", "defaults", "progress", "reproducible", "settings", "smoothing"),
     ("io",),
     ("warp",),
     ("model",),
@@ -80,7 +80,7 @@ LAYERS = (
     ("ar", "synth"),
     ("evaluation",),
     ("profiles",),
-    ("tracker", "results", "face_result", "annotate"),
+    ("tracker", "tracker_config", "per_face", "results", "face_result", "annotate"),
 )
 """The stages of aamcore from the bottom up, as ARCHITECTURE.md draws them: a module may
 import its own stage and those below, never one above."""
@@ -88,9 +88,41 @@ PENDING: set[tuple[str, str]] = set()
 """Arrows up still to be moved (none left)."""
 
 
+FITTING_LAYERS = (
+    ("result", "shape_space", "pyramid", "residuals", "features", "search", "upright",
+     "warps"),
+    ("algorithm.ferns", "algorithm.local_hog", "learned", "update_matrix", "occlusion",
+     "appearance"),
+    ("model",),
+    ("algorithm",),
+    ("config", "failure"),
+    ("fitter",),
+    ("tracker", "multi"),
+    ("training",),
+)
+"""The layers inside ``aamcore/fitting`` from the bottom up: fits and image tools; what
+the methods learn (stored in the model); the model; the methods (``algorithm/``, the
+registry names them all); the choices and failure tests; the fitter; the trackers; and
+training on top, which nothing that runs imports."""
+TRAINING_DOORS = {"aamcore/profiles.py"}
+"""The one module of the library outside ``fitting/training`` that reaches training: a
+profile's model, trained and cached on first use (:meth:`aamcore.profiles.Profile.model_path`)."""
+
+
 def _stage(module: str) -> str | None:
     parts = module.split(".")
     return parts[1] if parts[0] == "aamcore" and len(parts) > 1 else None
+
+
+def _fitting_layer(module: str) -> str | None:
+    """The layer name of a module of ``aamcore.fitting`` (``algorithm.ferns``, ``model``),
+    None for another module or the package itself."""
+    parts = module.split(".")
+    if parts[:2] != ["aamcore", "fitting"] or len(parts) < 3:
+        return None
+    if len(parts) > 3 and ".".join(parts[2:4]) in {n for layer in FITTING_LAYERS for n in layer}:
+        return ".".join(parts[2:4])
+    return parts[2]
 
 
 def _imports(path: Path) -> list[str]:
@@ -125,6 +157,38 @@ def test_the_stages_of_aamcore_import_only_downwards() -> None:
             if other in rank and me in rank and rank[other] > rank[me]:
                 up.add((me, other, path.relative_to(REPO_ROOT).as_posix()))
     assert {(a, b) for a, b, _ in up} <= PENDING, sorted(up)
+
+
+def test_the_layers_inside_fitting_import_only_downwards() -> None:
+    rank = {name: k for k, layer in enumerate(FITTING_LAYERS) for name in layer}
+    folder = REPO_ROOT / "aamcore" / "fitting"
+    present = {p.stem if p.is_file() else p.name for p in folder.iterdir()
+               if p.name != "__init__.py" and (p.suffix == ".py" or (p / "__init__.py").exists())}
+    assert set(rank) >= present, present - set(rank)
+    up = set()
+    for path in sorted(folder.rglob("*.py")):
+        name = ".".join(path.relative_to(REPO_ROOT).with_suffix("").parts)
+        me = _fitting_layer(name)
+        for target in _imports(path):
+            other = _fitting_layer(target)
+            if me in rank and other in rank and rank[other] > rank[me]:
+                up.add(f"{path.relative_to(REPO_ROOT)} ({me}) imports {target} ({other})")
+    assert not up, sorted(up)
+
+
+def test_running_code_imports_no_training_code() -> None:
+    """Outside ``fitting/training``, only :data:`TRAINING_DOORS` in the library and the
+    commands (``services/cli``, which train and measure) import training; no service."""
+    offenders = []
+    for package in ("aamcore", "services"):
+        for path in modules(package):
+            name = path.relative_to(REPO_ROOT).as_posix()
+            if (name.startswith(("aamcore/fitting/training/", "services/cli/"))
+                    or name in TRAINING_DOORS):
+                continue
+            if any(t.startswith("aamcore.fitting.training") for t in _imports(path)):
+                offenders.append(name)
+    assert not offenders, offenders
 
 
 def test_no_import_loops_in_the_packages() -> None:

@@ -1,6 +1,6 @@
 """The library and each service start from equal configurations: every default is defined
-once (in aamcore) and the services' options wrap it. Where the stack deliberately differs
-(smoothing, the expression label hold), the difference is the one documented."""
+once (in aamcore: the tracker's in :class:`~aamcore.tracker_config.TrackerConfig`) and the
+services' options wrap it, smoothing and the expression label hold included."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import inspect
 from aamcore import defaults
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.expression.recogniser import STACK_HOLD, ExpressionRecogniser
-from aamcore.fitting.config import FITTER
 from aamcore.tracker import FaceTracker
+from aamcore.tracker_config import TRACKER
 from services.detector.options import DetectorOptions
 from services.expression.options import ExpressionOptions
 from services.fitter.options import FitterOptions
@@ -22,8 +22,8 @@ def _default(function: object, name: str) -> object:
 
 
 def test_the_fitter_service_and_the_library_fit_alike() -> None:
-    assert FitterOptions().config() == FITTER
-    assert _default(FaceTracker, "fitter") is None  # None: FITTER, the same object
+    assert FitterOptions().config() == TRACKER
+    assert _default(FaceTracker, "config") is None  # None: TRACKER, the same object
 
 
 def test_the_detector_service_and_the_library_search_alike() -> None:
@@ -44,5 +44,5 @@ def test_the_expression_service_and_the_library_classify_alike_but_for_the_hold(
     opts = ExpressionOptions()
     assert opts.smooth == _default(FaceTracker, "expression_smooth") == _default(
         ExpressionRecogniser, "smooth")
-    assert _default(FaceTracker, "expression_hold") == _default(ExpressionRecogniser, "hold") == 0
-    assert opts.hold == STACK_HOLD > 0  # on in the stack, off in the library, as smoothing
+    assert opts.hold == STACK_HOLD == TRACKER.expression_hold > 0  # the library's and the stack's
+    assert PoseOptions().smooth == TRACKER.smoothing  # as smoothing

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from aamcore.defaults import EXPRESSION_HOLD
+from aamcore import defaults
 from aamcore.expression.classifier_file import ExpressionClassifier
 from aamcore.expression.crop import SCHEME, FaceObservation
 from aamcore.expression.pipeline import LOST_FRAMES_RESET, ExpressionPipeline
@@ -78,9 +78,9 @@ class Smoother:
         return np.mean(self._scores, axis=0), len(self._scores) > 1
 
 
-STACK_HOLD = EXPRESSION_HOLD
-"""Classified frames a new label leads before the stack shows it
-(:data:`aamcore.defaults.EXPRESSION_HOLD`); the library holds none by default."""
+STACK_HOLD = defaults.EXPRESSION_HOLD
+"""Classified frames a new label leads before it is shown, in the stack and the library
+(:data:`aamcore.defaults.EXPRESSION_HOLD`)."""
 
 
 class LabelHold:

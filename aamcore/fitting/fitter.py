@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -14,12 +15,10 @@ from aamcore.fitting.failure import APPEARANCE_TESTS, FailureTest, QualityTest
 from aamcore.fitting.model import FittingModel
 from aamcore.fitting.occlusion import OcclusionTest
 from aamcore.fitting.residuals import WarpFn
-from aamcore.fitting.result import AAMFit, LandmarkFit
+from aamcore.fitting.result import AAMFit, FitResult, LandmarkFit, judged
 from aamcore.model.similarity import Similarity
 
 NO_APPEARANCE = np.zeros(0)
-REFINERS = ("fixed-jacobian", "supervised-descent")
-"""The AAM methods that can refine a regressor's landmarks (``refine_with``)."""
 
 
 def failure_kind(failure_test: str, algorithm: str) -> str:
@@ -36,48 +35,43 @@ class Fitter:
     The algorithm finds the landmarks (and, for an AAM method, the appearance);
     the fitter then applies its one failure test, gives a good regressor's fit
     the AAM's appearance (:class:`~aamcore.fitting.appearance.AppearanceSampler`),
-    refines it if asked, and flags occluded landmarks.
+    refines it if asked, and flags occluded landmarks. Each of these makes a new fit
+    (fits are values); a refined fit is scored and judged at its own landmarks.
 
     Parameters
     ----------
     model : FittingModel
-    algorithm : str
-        A name of :data:`aamcore.fitting.algorithm.ALGORITHMS`.
-    max_iterations : int, optional
+    config : FitterConfig or str, optional
+        The fitting's choices (:data:`~aamcore.fitting.config.FITTER` by default), or just
+        the algorithm's name.
     warp : callable, optional
         Texture sampler ``warp(image, shape) -> (M, C)``; the CPU warp by default.
-    failure_test : {"auto", "chi2", "eq7.2", "quality"}
-        How a failed fit is recognised (:class:`FailureTest`, :class:`QualityTest`;
-        ``auto``: see :func:`failure_kind`).
-    appearance, occlusion, refine, refine_with
-        As :class:`~aamcore.fitting.config.FitterConfig` says; a test of ``c``
-        (``chi2``, ``eq7.2``) samples the appearance whatever ``appearance`` says.
+    **settings
+        Fields of :class:`~aamcore.fitting.config.FitterConfig` to change
+        (``Fitter(model, refine=3)``).
 
     Raises
     ------
     ValueError
-        For an unknown algorithm or test, or a model without what they need.
+        For an unknown algorithm or test, or a model without what they need
+        (:class:`~aamcore.settings.ConfigError` for a setting it does not accept).
     """
 
-    def __init__(
-        self,
-        model: FittingModel,
-        algorithm: str = FITTER.algorithm,
-        max_iterations: int | None = FITTER.max_iterations,
-        warp: WarpFn | None = None,
-        failure_test: str = FITTER.failure_test,
-        appearance: bool = FITTER.appearance,
-        *,
-        occlusion: bool = FITTER.occlusion,
-        refine: int = FITTER.refine,
-        refine_with: str = FITTER.refine_with,
-    ) -> None:
+    def __init__(self, model: FittingModel, config: FitterConfig | str = FITTER,
+                 warp: WarpFn | None = None, **settings: object) -> None:
+        if isinstance(config, str):
+            settings = {"algorithm": config, **settings}
+            config = FITTER
+        config = config.with_values(**settings) if settings else config
+        self.config = config
         self.model = model
         self.aam = model.aam
         self.mapping = model.mapping
-        self.failure_test = failure_kind(failure_test, algorithm)
+        algorithm = config.algorithm
+        self.failure_test = failure_kind(config.failure_test, algorithm)
         self.failure = FailureTest(self.aam.combined.pca.variances, self.failure_test)
-        self.algorithm = make_algorithm(algorithm, model, AlgorithmSettings(warp, max_iterations))
+        self.algorithm = make_algorithm(algorithm, model,
+                                        AlgorithmSettings(warp, config.max_iterations))
         self.quality: QualityTest | None = None
         self.scorer = None
         if self.failure_test == "quality":
@@ -85,26 +79,24 @@ class Fitter:
             self.quality = QualityTest(model.binary.threshold)  # type: ignore[union-attr]
         regressor = algorithm in REGRESSORS
         self.regressor = regressor
-        sample = regressor and (appearance or refine > 0 or self.failure_test in APPEARANCE_TESTS)
+        sample = regressor and (config.appearance or config.refine > 0
+                                or self.failure_test in APPEARANCE_TESTS)
         self.sampler = AppearanceSampler(self.aam, warp) if sample else None
         self.refiner = None
-        self.refine = refine
-        if regressor and refine > 0:
-            if refine_with not in REFINERS:
-                raise ValueError(f"cannot refine with {refine_with!r}: choose one of {REFINERS}")
-            settings = AlgorithmSettings(warp, refine)
-            self.refiner = make_algorithm(refine_with, model, settings)
-        judged = occlusion and model.occlusion is not None and (sample or not regressor)
-        self.occlusion = OcclusionTest(model.occlusion, self.aam) if judged else None
+        self.refine = config.refine
+        if regressor and config.refine > 0:
+            self.refiner = make_algorithm(config.refine_with, model,
+                                          AlgorithmSettings(warp, config.refine))
+        judged_here = (config.judges_occlusion and model.occlusion is not None
+                       and (sample or not regressor))
+        self.occlusion = OcclusionTest(model.occlusion, self.aam) if judged_here else None
         self.zero = np.zeros(self.aam.n_appearance)
 
     @classmethod
     def from_config(cls, model: FittingModel, config: FitterConfig,
                     warp: WarpFn | None = None) -> Fitter:
         """The fitter ``config`` describes."""
-        return cls(model, config.algorithm, config.max_iterations, warp, config.failure_test,
-                   config.appearance, occlusion=config.occlusion, refine=config.refine,
-                   refine_with=config.refine_with)
+        return cls(model, config, warp)
 
     def _scorer(self, model: FittingModel):
         """What scores fits for the quality test: the algorithm itself if it is the
@@ -140,36 +132,40 @@ class Fitter:
         prepared = self.prepare(image, previous.points)
         return self._rated(self.algorithm.track(prepared, previous), image)
 
-    def _rated(self, fit: LandmarkFit, image: np.ndarray) -> LandmarkFit:
+    def _rated(self, fit: FitResult, image: np.ndarray) -> FitResult:
         """``fit`` judged by the failure test, with its appearance (sampled where the
         algorithm has none, and refined if asked), its occlusion flags and confidence."""
-        if not fit.failed and self.quality is not None:
-            _judge(fit, self._quality_reason(fit, image))
-        if not fit.failed and self.sampler is not None and not isinstance(fit, AAMFit):
+        if fit.ok and self.quality is not None:
+            fit = self._scored(fit, image)
+        if fit.ok and self.sampler is not None and not isinstance(fit, AAMFit):
             fit = self._appearance(fit, image)
-        if isinstance(fit, AAMFit) and not fit.failed:
+        if isinstance(fit, AAMFit) and fit.ok:
             if self.failure_test in APPEARANCE_TESTS:
-                _judge(fit, self.failure(fit.c, fit.points))
-            if not fit.failed and self.occlusion is not None:
-                fit.occluded = self.occlusion(fit)
-        if fit.failed:
-            fit.confidence = 0.0
-        elif self.quality is not None:
-            fit.confidence = self.quality.confidence(fit.score)
-        else:
-            fit.confidence = self.failure.confidence(fit.c) if isinstance(fit, AAMFit) else 0.0
-        return fit
+                fit = judged(fit, self.failure(fit.c, fit.points))
+            if fit.ok and self.occlusion is not None:
+                fit = replace(fit, occluded=self.occlusion(fit))
+        return replace(fit, confidence=self._confidence(fit))
 
-    def _quality_reason(self, fit: LandmarkFit, image: np.ndarray) -> str:
-        """Why the quality test fails ``fit`` (its landmarks' learned score), or ``""``."""
+    def _confidence(self, fit: FitResult) -> float:
+        if fit.failed:
+            return 0.0
+        if self.quality is not None:
+            return self.quality.confidence(fit.score)
+        return self.failure.confidence(fit.c) if isinstance(fit, AAMFit) else 0.0
+
+    def _scored(self, fit: FitResult, image: np.ndarray) -> FitResult:
+        """``fit`` with the learned quality score of its landmarks (computed where the
+        algorithm gave none), failed where the quality test says so."""
         if math.isnan(fit.score) and self.scorer is not None:
-            fit.score = self.scorer.score(self.scorer.prepare(image), fit.points)
+            fit = replace(fit, score=self.scorer.score(self.scorer.prepare(image), fit.points))
         c = fit.c if isinstance(fit, AAMFit) else NO_APPEARANCE
-        return self.failure(c, fit.points) or self.quality.reason(fit.score)  # type: ignore
+        return judged(fit, self.failure(c, fit.points)
+                      or self.quality.reason(fit.score))  # type: ignore[union-attr]
 
     def _appearance(self, fit: LandmarkFit, image: np.ndarray) -> AAMFit:
-        """A regressor's good ``fit`` with the AAM's appearance at its landmarks, refined
-        by a few fixed-Jacobian iterations where asked."""
+        """A regressor's good ``fit`` with the AAM's appearance at its landmarks; refined by
+        the AAM where asked, and then the refined fit, scored and judged at its own
+        landmarks, where it passes."""
         assert self.sampler is not None
         found = self.sampler.project_frame(image, fit.points)
         sampled = AAMFit.of_landmarks(fit, found.c, found.residual, found.error,
@@ -183,11 +179,11 @@ class Fitter:
             refined = self.refiner.run(prepared, found.c, found.similarity)
         if refined.failed:
             return sampled
-        return AAMFit(points=refined.points, similarity=refined.similarity, score=fit.score,
-                      seconds=fit.seconds + refined.seconds, c=refined.c,
-                      residual=refined.residual, error=refined.error,
-                      iterations=refined.iterations, converged=refined.converged,
-                      errors=refined.errors)
+        refined = replace(refined, score=math.nan, seconds=fit.seconds + refined.seconds,
+                          disagreement=fit.disagreement)
+        if self.quality is not None:
+            refined = self._scored(refined, image)
+        return refined if refined.ok else sampled
 
     def fit_shape(self, image: np.ndarray, shape: np.ndarray) -> LandmarkFit:
         """Fit from the mean face placed on a start ``shape`` (N, 2)."""
@@ -204,8 +200,3 @@ class Fitter:
             raise ValueError(f"invalid face box {box.tolist()}")
         return self.fit_shape(image, self.mapping.place(box, source))
 
-
-def _judge(fit: LandmarkFit, reason: str) -> None:
-    """Mark ``fit`` failed for ``reason`` (none: left as it is)."""
-    if reason:
-        fit.failed, fit.reason = True, reason

@@ -4,7 +4,7 @@
 its file; the algorithm modules read them. Keeping them here, apart from the
 algorithms, lets the model be read without importing any algorithm (and the
 algorithms import the model module for its type only). The update matrices
-of the AAM methods are :class:`~aamcore.fitting.training.update.UpdateMatrix`;
+of the AAM methods are :class:`~aamcore.fitting.update_matrix.UpdateMatrix`;
 the occlusion test's part is :class:`~aamcore.fitting.occlusion.OcclusionModel`.
 """
 

@@ -7,7 +7,7 @@ default method, with its quality stage and failure threshold) and the
 occlusion test's statistics. It is saved as the *extra* part of the AAM's
 model file (:mod:`aamcore.model.file`), so one file holds a model ready to
 track with. Each part is a data class of :mod:`aamcore.fitting.learned` (or
-:mod:`~aamcore.fitting.training.update`, :mod:`~aamcore.fitting.occlusion`):
+:mod:`~aamcore.fitting.update_matrix`, :mod:`~aamcore.fitting.occlusion`):
 reading a model imports no fitting algorithm.
 """
 
@@ -22,7 +22,7 @@ import numpy as np
 from aamcore.detection.mapping import BoxToShapeMapping
 from aamcore.fitting.learned import BinaryCascade, DescentCascade
 from aamcore.fitting.occlusion import OcclusionModel
-from aamcore.fitting.training.update import PerturbationScheme, UpdateMatrix
+from aamcore.fitting.update_matrix import PerturbationScheme, UpdateMatrix
 from aamcore.model.aam import AAM
 from aamcore.model.file import ModelFileError, read_model, save_model
 

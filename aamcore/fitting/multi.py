@@ -12,57 +12,24 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
+from aamcore import defaults
 from aamcore.detection.haar import HaarFaceDetector, to_grey_uint8
+from aamcore.fitting.config import NewFaces
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.result import FitResult
 from aamcore.fitting.search import SearchSchedule
 from aamcore.fitting.tracker import FaceDetector, Refit, Tracker, new_size, turn_for_search
 from aamcore.fitting.upright import mapped, roll_of, rotated_view
 
+__all__ = ["MultiTracker", "NewFaces", "TrackedFace"]
+
 FOREHEAD = 0.35
 """A tracked face is blanked out for the search over its landmarks' box widened by this share
 of its size on each side (and as much again above: a Haar box holds the forehead)."""
-
-
-@dataclass(frozen=True)
-class NewFaces:
-    """How a tracker of several faces looks for new ones and keeps ids.
-
-    Attributes
-    ----------
-    every : int
-        Search for faces not yet tracked every this many frames while fewer than
-        ``max_faces`` are tracked, upright and in the frame turned by 25 degrees in turn
-        (every fifth frame: the search costs 0.97 ms a frame on average at 960x540,
-        ``bench/bench_multiface.py``).
-    regain_frames : int
-        A face found again within this many frames of being lost ...
-    regain_distance : float
-        ... and within this share of its width of where it was lost keeps its id;
-        any other face found gets a new one.
-    overlap : float
-        Two tracked faces whose landmark boxes overlap more than this (intersection over
-        the smaller box) are one face: the one that moved less keeps it.
-    hidden_frames : int
-        A face lost where it overlapped another (gone behind it) is looked for around the
-        place it was lost on every frame, and keeps its id, for this many frames.
-    """
-
-    every: int = 5
-    regain_frames: int = 15
-    regain_distance: float = 0.5
-    overlap: float = 0.5
-    hidden_frames: int = 90
-
-    def __post_init__(self) -> None:
-        if (self.every < 1 or self.regain_frames < 0 or self.regain_distance < 0
-                or self.hidden_frames < 0):
-            raise ValueError(f"not a new-face policy: {self}")
-        if not 0.0 < self.overlap <= 1.0:
-            raise ValueError(f"overlap must be in (0, 1], got {self.overlap}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -168,6 +135,15 @@ def blanked(grey: np.ndarray, fits: list[FitResult], offset: tuple[int, int] = (
     return out
 
 
+class TrackingChoices(Protocol):
+    """What :meth:`MultiTracker.configured` reads of a tracker's configuration."""
+
+    max_faces: int
+    search: SearchSchedule
+    refit: Refit
+    new_faces: NewFaces
+
+
 class MultiTracker:
     """Track up to ``max_faces`` faces from frame to frame, each under a stable id.
 
@@ -190,8 +166,8 @@ class MultiTracker:
     def __init__(self, fitter: Fitter, detector: FaceDetector | None = None, max_faces: int = 1,
                  search: SearchSchedule | None = None, refit: Refit | None = None,
                  new_faces: NewFaces | None = None) -> None:
-        if max_faces < 1:
-            raise ValueError(f"max_faces must be at least 1, got {max_faces}")
+        if not 1 <= max_faces <= defaults.MAX_FACES:
+            raise ValueError(f"max_faces must be 1 to {defaults.MAX_FACES}, got {max_faces}")
         self.fitter = fitter
         self.detector = detector or HaarFaceDetector()
         self.max_faces = max_faces
@@ -210,6 +186,13 @@ class MultiTracker:
         self._due = 0
         self._roll = 0.0
         self._side = 1.0
+
+    @classmethod
+    def configured(cls, fitter: Fitter, config: TrackingChoices,
+                   detector: FaceDetector | None = None) -> MultiTracker:
+        """The tracker of a :class:`~aamcore.tracker_config.TrackerConfig`'s choices."""
+        return cls(fitter, detector, config.max_faces, config.search, config.refit,
+                   config.new_faces)
 
     @property
     def detections(self) -> int:

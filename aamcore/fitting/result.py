@@ -11,19 +11,23 @@ one, a fit is one of two types:
   and the iterations the AAM took (none when the appearance was only projected
   at a regressor's landmarks). Per-landmark occlusion flags come from the
   residual where the model learned how to read it.
+
+A fit is a value: frozen once made. What the fitter learns of it afterwards (its
+verdict, its appearance, a refinement) makes a new fit (:func:`dataclasses.replace`),
+each with the score of its own landmarks.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
 from aamcore.model.similarity import Similarity
 
 
-@dataclass
+@dataclass(frozen=True)
 class LandmarkFit:
     """Landmarks found in one image, and whether the fit failed.
 
@@ -46,6 +50,10 @@ class LandmarkFit:
         (:class:`~aamcore.fitting.failure.QualityTest`); NaN where none was computed.
     seconds : list of float
         Time each stage (a regressor) or iteration (the AAM) took.
+    disagreement : float
+        How far apart the two fits a tracking step averaged lay (from the last landmarks,
+        and afresh from the mean face placed on them): their mean point distance over the
+        face's eye distance; a cue of failure. NaN where the fit is not such a mean.
     """
 
     points: np.ndarray
@@ -55,13 +63,14 @@ class LandmarkFit:
     confidence: float = math.nan
     score: float = math.nan
     seconds: list[float] = field(default_factory=list)
+    disagreement: float = math.nan
 
     @property
     def ok(self) -> bool:
         return not self.failed
 
 
-@dataclass(kw_only=True)
+@dataclass(frozen=True, kw_only=True)
 class AAMFit(LandmarkFit):
     """A fit with the AAM's appearance of the face.
 
@@ -104,14 +113,18 @@ class AAMFit(LandmarkFit):
     def of_landmarks(cls, fit: LandmarkFit, c: np.ndarray, residual: np.ndarray,
                      error: float, **more: object) -> AAMFit:
         """``fit`` with the appearance projected at its landmarks (no AAM iteration)."""
-        return cls(points=fit.points, similarity=fit.similarity, failed=fit.failed,
-                   reason=fit.reason, confidence=fit.confidence, score=fit.score,
-                   seconds=list(fit.seconds), c=c, residual=residual, error=error,
-                   **more)  # type: ignore[arg-type]
+        kept = {f.name: getattr(fit, f.name) for f in fields(LandmarkFit)}
+        kept["seconds"] = list(fit.seconds)
+        return cls(**kept, c=c, residual=residual, error=error, **more)  # type: ignore[arg-type]
 
 
 FitResult = LandmarkFit | AAMFit
 """Either kind of fit (an :class:`AAMFit` is a :class:`LandmarkFit`)."""
+
+
+def judged(fit: FitResult, reason: str) -> FitResult:
+    """``fit`` failed for ``reason`` (a new fit), or ``fit`` itself when there is none."""
+    return replace(fit, failed=True, reason=reason) if reason else fit
 
 
 def appearance_of(fit: LandmarkFit | None) -> np.ndarray | None:

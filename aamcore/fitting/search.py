@@ -11,9 +11,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from aamcore.settings import Settings, setting
+
 
 @dataclass(frozen=True)
-class SearchSchedule:
+class SearchSchedule(Settings):
     """Which Haar passes the ``k``-th frame in a row without a face gets.
 
     Attributes
@@ -29,13 +31,12 @@ class SearchSchedule:
         that comes back is found within as many frames.
     """
 
-    eager: int = 3
-    upright_every: int = 3
-    turned_every: int = 5
-
-    def __post_init__(self) -> None:
-        if self.eager < 0 or self.upright_every < 1 or self.turned_every < 1:
-            raise ValueError(f"not a search schedule: {self}")
+    eager: int = setting(3, "frames after a face is lost searched both upright and turned",
+                         low=0, metavar="N")
+    upright_every: int = setting(3, "then search upright every N frames without a face",
+                                 low=1, metavar="N")
+    turned_every: int = setting(5, "and in the frame turned by the last roll every N frames",
+                                low=1, metavar="N")
 
     @classmethod
     def every_frame(cls) -> SearchSchedule:

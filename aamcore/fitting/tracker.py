@@ -3,16 +3,18 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
 from aamcore.detection.haar import HaarFaceDetector, to_grey_uint8
+from aamcore.fitting.config import DEFAULT_REFIT, NEVER, Refit
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.result import FitResult
 from aamcore.fitting.search import SearchSchedule
 from aamcore.fitting.upright import mapped, roll_of, rotated_view
+
+__all__ = ["DEFAULT_REFIT", "NEVER", "FaceDetector", "Refit", "Tracker", "fit_upright"]
 
 TURN_DEG = 12.0
 """A lost face last seen rolled further than this is looked for in the frame turned by
@@ -28,59 +30,6 @@ SEARCH_DEG = 25.0
 """Without such a roll, each search turns the frame by this much, to one side and then
 to the other on the next search (Haar finds faces within about 20 degrees of
 upright)."""
-
-
-@dataclass(frozen=True)
-class Refit:
-    """When the tracker also refits a frame from the mean face placed on its landmarks.
-
-    Tracking from the previous frame's landmarks follows the head but keeps whatever error
-    it has where the face changes shape (the jaw and the mouth as the expression changes);
-    a fit from the mean face, placed by a similarity on the tracked landmarks, starts
-    afresh (the whole cascade, as on a detection) and costs as much. A refit is kept
-    instead of the tracked fit when it passes the failure test and its quality score (the
-    predicted log NME) is lower; a fitter without that score (a failure test other than
-    ``quality``) never refits.
-
-    Attributes
-    ----------
-    every : int
-        Refit every this many tracked frames (0: not by count).
-    score : float
-        Refit a tracked fit whose quality score is above this (``inf``: never).
-    moving : float
-        Refit when the face moved more than this share of its width since the last frame
-        (``inf``: never).
-    failed : bool
-        Refit from the last good fit's landmarks when tracking fails, before a detection.
-    then_track : bool
-        Track once more from a refit kept (the fern stages polish its landmarks).
-    """
-
-    every: int = 0
-    score: float = math.inf
-    moving: float = math.inf
-    failed: bool = False
-    then_track: bool = False
-
-    @property
-    def never(self) -> bool:
-        return (self.every <= 0 and self.score == math.inf and self.moving == math.inf
-                and not self.failed)
-
-
-NEVER = Refit()
-"""Track only."""
-DEFAULT_REFIT = Refit(failed=True)
-"""The tracker's default: a refit from the mean face only where tracking fails, before a
-detection. The default cascade's tracking already averages a fit from the last landmarks
-with one afresh from the mean placed on them (the restart stages), so refits by count buy
-little: ``bench/bench_tracking.py --parts-only --per-set 4 --nonrigid 4`` (recipe fitting
-v12) measured on the non-rigid sequences mean NME 0.0486 tracking alone, 0.0487 with this
-default, 0.0479 with a refit every sixth frame, at 2.19, 2.20 and 3.10 ms a frame on
-average; on the rigid ones 0.0518, 0.0513 and 0.0506 with 84.1 %, 83.8 % and 83.5 % of the
-frames outside the occluder fitted well, at 3.83, 3.90 and 4.67 ms. Before the restart
-stages a refit every sixth frame took the non-rigid sequences from 0.0644 to 0.0506."""
 
 
 class FaceDetector(Protocol):
@@ -206,6 +155,7 @@ class Tracker:
             step = np.linalg.norm(tracked.points.mean(axis=0) - last.points.mean(axis=0))
             due = ((policy.every > 0 and self._since >= policy.every)
                    or tracked.score > policy.score
+                   or tracked.disagreement > policy.disagreement
                    or step > policy.moving * np.ptp(last.points[:, 0]))
         else:
             due = policy.failed

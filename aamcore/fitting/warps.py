@@ -151,9 +151,10 @@ class FitterWarp:
                 logger.warning("the GL thread did not stop: %s", err)
 
     def close(self) -> None:
-        """Release the GL worker, if one was made."""
+        """Release the GL worker, if one was made (a later warp makes the warp again)."""
         if self._warp is not None:
             self._warp.close()
+            self._warp = self._path = None
 
 
 SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swiftshader", "software")

@@ -12,12 +12,21 @@ environment variable). From that one declaration
 
 A value out of range raises :class:`OptionError` naming the option, before
 any process starts.
+
+A field made with :func:`settings_option` holds a whole configuration (a
+:class:`aamcore.settings.Settings` dataclass, such as the tracker's): each of its
+values is an option of its own (its flag, help, default and check come from the
+configuration's declaration), and the field is rebuilt from them, so that the
+configuration's own checks (two values that contradict each other) run too. This
+module reads such a configuration through its methods only (``settings()``,
+``values()``, ``with_values()``): the bus layer imports no algorithm.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import difflib
 import math
 import os
 import types
@@ -108,6 +117,57 @@ def in_range(low: float, high: float = math.inf) -> Check:
     return check
 
 
+def setting_option(setting: Any, **changes: Any) -> Any:
+    """An option field made of one value of a configuration (an
+    :class:`aamcore.settings.Setting`: its default, help, choices and check), for a service
+    that takes that one value under its own name; ``changes`` (``metavar``, ``flag``) go
+    over it."""
+    made = {"help": setting.help, "choices": setting.choices, "metavar": setting.metavar,
+            "check": setting.problem, **changes}
+    return option(setting.default, **made)
+
+
+@dataclass(frozen=True)
+class _Group:
+    without: tuple[str, ...]
+
+
+def settings_option(default: Any, without: Sequence[str] = ()) -> Any:
+    """A dataclass field holding a whole configuration (``default``, a
+    :class:`aamcore.settings.Settings`), each of its values (but those named in
+    ``without``, by flat name) an option of its own."""
+    return dataclasses.field(default=default, metadata={"settings": _Group(tuple(without))})
+
+
+@dataclass(frozen=True)
+class _Entry:
+    """One option: a field of its own, or a value of a configuration field (``group``)."""
+
+    name: str
+    kind: type
+    meta: _Meta
+    default: Any
+    group: str | None = None
+
+
+def _entries(cls: type[Options], only: Sequence[str] | None = None) -> list[_Entry]:
+    """Every option of ``cls`` (those named in ``only``: a configuration's values by their
+    flat names, or all of them by the field's name)."""
+    hints = typing.get_type_hints(cls)
+    out = []
+    for f in dataclasses.fields(cls):
+        if "option" in f.metadata and (only is None or f.name in only):
+            out.append(_Entry(f.name, _base_type(hints[f.name]), f.metadata["option"],
+                              f.default))
+        elif "settings" in f.metadata:
+            skip = f.metadata["settings"].without
+            for s in f.default.settings():
+                if s.name not in skip and (only is None or f.name in only or s.name in only):
+                    meta = _Meta(s.help, s.choices, s.metavar, None, None, s.flag)
+                    out.append(_Entry(s.name, s.kind, meta, s.default, f.name))
+    return out
+
+
 @dataclass(frozen=True)
 class Options:
     """Base of every options dataclass: checks each field on construction."""
@@ -130,22 +190,10 @@ class Options:
         return dataclasses.replace(self, **changes)
 
 
-def flag_of(f: dataclasses.Field) -> str:
-    """The command-line flag of an option field."""
-    meta: _Meta = f.metadata["option"]
+def flag_of(f: dataclasses.Field | _Entry) -> str:
+    """The command-line flag of an option field (or entry)."""
+    meta: _Meta = f.meta if isinstance(f, _Entry) else f.metadata["option"]
     return meta.flag or "--" + f.name.replace("_", "-")
-
-
-def option_fields(
-    cls: type[Options], only: Sequence[str] | None = None
-) -> list[tuple[dataclasses.Field, type, _Meta]]:
-    """``(field, value type, metadata)`` of each option of ``cls`` (those named in ``only``)."""
-    hints = typing.get_type_hints(cls)
-    out = []
-    for f in dataclasses.fields(cls):
-        if "option" in f.metadata and (only is None or f.name in only):
-            out.append((f, _base_type(hints[f.name]), f.metadata["option"]))
-    return out
 
 
 def _base_type(hint: Any) -> type:
@@ -170,7 +218,8 @@ def add_options(
     ``flags`` gives some options other flags than their own (and their
     aliases), by field name: ``{"viewer": ("--connect",)}``.
     """
-    for f, kind, meta in option_fields(cls, only):
+    for f in _entries(cls, only):
+        kind, meta = f.kind, f.meta
         text = meta.help
         if f.default not in (None, (), False, ""):
             text += f" (default {f.default})"
@@ -228,29 +277,65 @@ def options_from(
     ------
     OptionError
     """
-    values: dict[str, Any] = dataclasses.asdict(base) if base is not None else {}
-    for f, kind, meta in option_fields(cls, only):
+    values = _shallow(base) if base is not None else {}
+    groups: dict[str, dict[str, Any]] = {}
+    for f in _entries(cls, only):
         value = getattr(args, f.name, None) if args is not None else None
-        if value is None and meta.env:
-            value = _from_env(meta.env, kind)
+        if value is None and f.meta.env:
+            value = _from_env(f.meta.env, f.kind)
         if value is not None:
-            values[f.name] = tuple(value) if kind is tuple else value
+            value = tuple(value) if f.kind is tuple else value
+            if f.group is None:
+                values[f.name] = value
+            else:
+                groups.setdefault(f.group, {})[f.name] = value
     values.update(given)
     try:
+        values.update(_regrouped(cls, values, groups))
         return cls(**values)
     except OptionError as exc:
         names = (flags or {}).get(exc.option or "")
         if not names:
             raise
-        own = flag_of(next(f for f in dataclasses.fields(cls) if f.name == exc.option))
+        own = flag_of(next(e for e in _entries(cls) if e.name == exc.option))
         raise OptionError(names[0] + str(exc).removeprefix(own), exc.option) from None
+
+
+def _shallow(opts: Options) -> dict[str, Any]:
+    """The fields of ``opts`` by name (a configuration field as it is)."""
+    return {f.name: getattr(opts, f.name) for f in dataclasses.fields(opts)}
+
+
+def _regrouped(cls: type[Options], values: dict[str, Any], groups: dict[str, dict[str, Any]],
+               where: str = "") -> dict[str, Any]:
+    """Each configuration field of ``cls`` with the values given for it (by flat name).
+
+    Raises
+    ------
+    OptionError
+        Naming the value at fault by its flag (after ``where``: a stack file's table).
+    """
+    out = {}
+    for name, given in groups.items():
+        default = next(f.default for f in dataclasses.fields(cls) if f.name == name)
+        try:
+            out[name] = values.get(name, default).with_values(**given)
+        except ValueError as exc:  # the configuration's ConfigError, read by its attributes
+            field = getattr(exc, "field", None)
+            if field is None:
+                raise OptionError(f"{where}{exc}") from None
+            flag = next((flag_of(e) for e in _entries(cls) if e.name == field), field)
+            raise OptionError(f"{where}{flag} {exc.value!r}: {exc.problem}", field) from None
+    return out
 
 
 def options_argv(opts: Options) -> list[str]:
     """The command-line arguments giving ``opts`` back (only values other than the defaults)."""
     argv: list[str] = []
-    for f, kind, _ in option_fields(type(opts)):
-        value = getattr(opts, f.name)
+    for f in _entries(type(opts)):
+        kind = f.kind
+        value = (getattr(opts, f.group).values()[f.name] if f.group is not None
+                 else getattr(opts, f.name))
         if value == f.default or value is None:
             continue
         flag = flag_of(f)
@@ -272,22 +357,33 @@ def options_of_mapping(cls: type[Options], data: dict[str, Any], where: str) -> 
     OptionError
         Naming ``where`` for an unknown key or a value of the wrong type.
     """
-    fields = {f.name: kind for f, kind, _ in option_fields(cls)}
-    values = {}
+    entries = {e.name: e for e in _entries(cls)}
+    entries |= {flag_of(e)[2:].replace("-", "_"): e for e in entries.values()
+                if flag_of(e).startswith("--")}  # a value may be named by its flag too
+    values: dict[str, Any] = {}
+    groups: dict[str, dict[str, Any]] = {}
     for key, value in data.items():
         name = key.replace("-", "_")
-        if name not in fields:
-            raise OptionError(f"{where}: unknown option {key!r}; options are "
-                              f"{', '.join(sorted(fields))}")
-        kind = fields[name]
+        if name not in entries:
+            close = difflib.get_close_matches(name, entries, 1)
+            hint = f"did you mean {close[0].replace('_', '-')}? " if close else ""
+            raise OptionError(f"{where}: unknown option {key!r}; {hint}options are "
+                              f"{', '.join(sorted({e.name for e in entries.values()}))}",
+                              name)
+        kind = entries[name].kind
         if kind is tuple:
             value = tuple(value) if isinstance(value, list) else (value,)
         elif kind is float and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
         elif not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-            raise OptionError(f"{where}: {key} = {value!r} is not a {kind.__name__}")
-        values[name] = value
+            raise OptionError(f"{where}: {key} = {value!r} is not a {kind.__name__}", name)
+        entry = entries[name]
+        if entry.group is None:
+            values[entry.name] = value
+        else:
+            groups.setdefault(entry.group, {})[entry.name] = value
+    values.update(_regrouped(cls, values, groups, f"{where}: "))
     try:
         return cls(**values)
     except OptionError as exc:
-        raise OptionError(f"{where}: {exc}") from None
+        raise OptionError(f"{where}: {exc}", exc.option) from None

@@ -4,8 +4,10 @@
   row per frame of a recording made with ``aamtrack run --record``;
   ``--rrd OUT.rrd`` replays it into a Rerun recording to view.
 - ``aamtrack track VIDEO --csv OUT.csv``: the same rows straight from a
-  video through the Python API (:class:`aamcore.tracker.FaceTracker`), no bus;
-  with ``--max-faces N``, one row per face per frame.
+  video through the Python API (:class:`aamcore.tracker.FaceTracker`), no bus,
+  with the default profile's expressions (``--no-expression``: none) and every option of
+  the tracker's configuration (:mod:`services.cli.track_options`); with
+  ``--max-faces N``, one row per face per frame.
 
 Rows are written as they come: whatever was exported before a damaged record
 or a video that ends mid-frame is kept, and the command says what happened.
@@ -27,9 +29,6 @@ from services.cli.annotated import (
 )
 from services.cli.commands import add_command
 
-MAX_FACES = 32
-"""The most faces ``aamtrack track --max-faces`` takes."""
-
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``export`` and ``track``."""
@@ -45,14 +44,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("video", type=Path)
     _outputs(p)
     add_annotate(p, export=False)
-    p.add_argument("--model", help="fitting model file (default: the default model)")
-    p.add_argument("--classifier", help="expression classifier file (default: none)")
-    p.add_argument("--fov", type=float, help="assumed horizontal field of view, degrees")
-    p.add_argument("--calibration", help="camera calibration file")
-    p.add_argument("--smooth", action=argparse.BooleanOptionalAction, default=True,
-                   help="smooth landmarks and pose over time (default on)")
-    p.add_argument("--max-faces", type=int, default=1, metavar="N",
-                   help="track up to N faces, one row per face per frame (default 1)")
+    from services.cli.track_options import add_track_options
+
+    add_track_options(p)
     p.set_defaults(func=cmd_track)
 
 
@@ -158,20 +152,23 @@ def cmd_track(args: argparse.Namespace) -> int:
         return _fail("track", "give --csv, --jsonl and/or --annotate", 2)
     if problem := annotate_problem(args, export=False) or _check_outputs(args):
         return _fail("track", problem, 2)
-    if args.fov is not None and not 1.0 <= args.fov <= 179.0:
-        return _fail("track", f"--fov {args.fov:g}: must be a number from 1 to 179", 2)
-    if not 1 <= args.max_faces <= MAX_FACES:
-        return _fail("track", f"--max-faces {args.max_faces}: must be 1 to {MAX_FACES}", 2)
+    from services.bus.options import OptionError
+    from services.cli.track_options import track_options
+
+    try:
+        opts = track_options(args)
+    except OptionError as exc:
+        return _fail("track", str(exc), 2)
     if problem := video_problem(args.video):
         return _fail("track", problem, 2)
     from aamcore.io.video import video_facts
     from aamcore.model.file import ModelFileError
     from aamcore.tracker import FaceTracker
 
-    camera = args.calibration or args.fov
     try:
-        tracker = FaceTracker(args.model, args.classifier, camera, smoothing=args.smooth,
-                              max_faces=args.max_faces)
+        tracker = FaceTracker(opts.tracking, model=opts.model, profile=opts.profile,
+                              classifier=opts.classifier if opts.expression else False,
+                              camera=opts.calibration or opts.fov)
     except (ModelFileError, OSError, ValueError) as exc:
         return _fail("track", str(exc), 2)
     expected = video_facts(args.video)[0]

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from aamcore.defaults import EXPRESSION_HOLD
-from services.bus.options import Options, in_range, option
+from aamcore.tracker_config import TrackerConfig
+from services.bus.options import Options, in_range, option, setting_option
 
 
 @dataclass(frozen=True)
@@ -19,8 +19,7 @@ class ExpressionOptions(Options):
                                    "was trained on its fits (with --model)", metavar="NAME")
     smooth: int = option(1, "average the probabilities over the last N classified frames (1: none)",
                          metavar="N", check=in_range(1, 1000))
-    hold: int = option(EXPRESSION_HOLD, "frames a new label must lead the (smoothed) probabilities "
-                       "before it is published (0: none)", metavar="N", check=in_range(0, 1000))
+    hold: int = setting_option(TrackerConfig.setting("expression_hold"))
     capacity: int = option(48, "latest fits kept while busy: a burst of fast frames is worked "
                            "through, not dropped (a dropped fit is a gap in the stream's "
                            "reference and smoothing)", check=in_range(1, 1024))

@@ -36,9 +36,9 @@ from aamcore.expression.crop import grey as crop_grey
 from aamcore.expression.quality import reason_key
 from aamcore.expression.recogniser import ExpressionRecogniser, Recognition
 from aamcore.expression.training import check_made_for, model_fingerprint
+from aamcore.per_face import PerFace
 from proto import Expression, Fit, Frame, ProtoError
 from services.bus.args import parse_service_args
-from services.bus.faces import PerFace
 from services.bus.images import image_of
 from services.bus.inbox import Received, Recent
 from services.bus.process import init_process
@@ -146,7 +146,7 @@ class ExpressionStream:
     """The recognisers of the fits of one run, one per face (its reference, smoothing and
     label hold), with the frames they were made on.
 
-    One recogniser per face (:class:`services.bus.faces.PerFace`): face 0's, the first,
+    One recogniser per face (:class:`aamcore.per_face.PerFace`): face 0's, the first,
     also hears of the frames without a face (``face_id`` -1), as the library's does.
     """
 

@@ -38,10 +38,11 @@ from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
 from aamcore.fitting.multi import MultiTracker
 from aamcore.fitting.result import AAMFit, LandmarkFit
-from aamcore.fitting.training.prepare import default_model_path
 from aamcore.fitting.warps import FitterWarp
 from aamcore.model.file import ModelFileError
+from aamcore.profiles import PROFILES
 from aamcore.smoothing import LandmarkSmoother
+from aamcore.tracker_config import TrackerConfig
 from aamcore.warp.reference_frame import ReferenceFrame
 from proto import Fit, FitAppearance, Frame, Header, ProtoError
 from services.bus.args import parse_service_args
@@ -63,8 +64,8 @@ def model_path(opts: FitterOptions) -> Path:
     """The model file to use: ``--model`` or the cached default (trained if needed)."""
     if opts.model:
         return Path(opts.model)
-    return default_model_path(max_images=opts.model_images, limit=opts.model_limit or None,
-                              update_method=opts.model_update)
+    return PROFILES["default"].model_path(opts.model_images, opts.model_limit or None,
+                                          opts.model_update)
 
 
 def fit_message(header: Header, result: LandmarkFit | None, scheme: str, warp_path: str,
@@ -114,14 +115,14 @@ class FrameTracker:
     smoothed per face if asked, as :class:`aamcore.tracker.FaceTracker` smooths them)."""
 
     def __init__(self, svc: Service, fitter: Fitter, warp: FitterWarp,
-                 detector: ServiceDetector, smooth: bool, max_faces: int = 1) -> None:
+                 detector: ServiceDetector, config: TrackerConfig) -> None:
         self.svc = svc
         self.scheme = fitter.aam.scheme.name
         self.frame = fitter.aam.frame
-        self.tracker = MultiTracker(fitter, detector, max_faces)
+        self.tracker = MultiTracker.configured(fitter, config, detector)
         self.detector = detector
         self.warp = warp
-        self.smooth = smooth
+        self.smooth = config.smoothing
         self.smoothers: dict[int, LandmarkSmoother] = {}
         """Per face (with one face, the one smoother whatever its id, as the library's)."""
         self._run: str | None = None
@@ -210,7 +211,7 @@ def warm_up(fitter: Fitter, warp: FitterWarp) -> None:
 def serve(svc: Service, fitter: Fitter, warp: FitterWarp, opts: FitterOptions) -> None:
     """Fit frames until stopped."""
     detector = ServiceDetector(svc, opts.detect_timeout, opts.local_for)
-    tracker = FrameTracker(svc, fitter, warp, detector, opts.smooth, opts.max_faces)
+    tracker = FrameTracker(svc, fitter, warp, detector, opts.tracking)
     frames = svc.messages("frame", capacity=opts.capacity, count_lost=True)
     svc.ready(f"{fitter.name}, warp {warp.path}")
     for got in frames:
@@ -229,8 +230,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     opts: FitterOptions = args.options
     try:
         model = FittingModel.load(model_path(opts))
-        warp = FitterWarp(model.aam, opts.warp)
-        fitter = Fitter.from_config(model, opts.config(), warp)
+        warp = FitterWarp(model.aam, opts.tracking.warp)  # type: ignore[arg-type]
+        fitter = Fitter(model, opts.tracking.fitting, warp)
     except (OSError, ValueError, ModelFileError) as exc:
         log.error("cannot load the model: %s", exc)
         return 1

@@ -5,7 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from aamcore import defaults
-from services.bus.options import OptionError, Options, in_range, option
+from aamcore.tracker_config import TrackerConfig
+from services.bus.options import OptionError, Options, in_range, option, setting_option
 
 
 @dataclass(frozen=True)
@@ -18,7 +19,7 @@ class PoseOptions(Options):
                                      metavar="FILE")
     capacity: int = option(64, "latest fits kept while busy: a burst of fast-paced fits is "
                            "worked through, not dropped", check=in_range(1, 1024))
-    smooth: bool = option(True, "smooth the pose over time (One Euro filter)")
+    smooth: bool = setting_option(TrackerConfig.setting("smoothing"))
     estimator: str = option(defaults.POSE_ESTIMATOR,
                             "head-pose estimator: contour (jaw landmarks matched to the outline "
                             "seen), posit (the thesis's, without the jaw), contour+calib "

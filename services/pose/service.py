@@ -17,12 +17,12 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Callable, Sequence
 
+from aamcore.per_face import PerFace
 from aamcore.pose import IntrinsicsError, PoseError
 from aamcore.pose.estimator import Cameras, HeadPoseEstimator, HeadPoseTracker
 from aamcore.pose.reliability import reason_key
 from proto import Fit, HeadPose, ProtoError
 from services.bus.args import parse_service_args
-from services.bus.faces import PerFace
 from services.bus.process import init_process
 from services.bus.session import Service
 from services.pose.options import PoseOptions
@@ -52,7 +52,7 @@ def pose_message(svc: Service, fit: Fit, poses: HeadPoseTracker) -> HeadPose:
 
 class FacePoses:
     """A pose tracker per face id (its smoothing, and with ``contour+calib`` its own head
-    model learned online), :class:`services.bus.faces.PerFace`."""
+    model learned online), :class:`aamcore.per_face.PerFace`."""
 
     def __init__(self, make: Callable[[], HeadPoseTracker]) -> None:
         self.faces = PerFace(make, HeadPoseTracker.reset)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from aamcore.profiles import PROFILES, Profile, profile_named
+from aamcore.tracker_config import TrackerConfig
 from services.bus.connection import DEFAULT_STREAM, BusOptions
 from services.bus.options import (
     OptionError,
@@ -27,17 +28,20 @@ from services.bus.options import (
 from services.stack.drain import DRAIN_MAX, DRAIN_QUIET
 from services.stack.registry import SERVICES
 
+TRACKING = tuple(s.name for s in TrackerConfig.settings()
+                 if s.name not in ("smoothing", "expression_hold"))
+"""The tracker's values ``aamtrack run`` offers as the fitter's (smoothing is the launcher's
+``--smooth``, the label hold the expression service's ``--expression-hold``)."""
 RUN_OPTIONS: dict[str, tuple[str, ...] | None] = {
     "source": None,
-    "fitter": ("model", "model_limit", "model_images", "model_update", "algorithm",
-               "failure_test", "appearance", "occlusion", "refine", "refine_with", "warp",
-               "max_faces"),
+    "fitter": ("model", "model_limit", "model_images", "model_update", *TRACKING),
     "pose": ("fov", "calibration", "estimator"),
-    "expression": ("classifier",),
+    "expression": ("classifier", "hold"),
     "rerun": ("rrd", "serve", "viewer"),
 }
 """The options of each service that ``aamtrack run`` offers (None: all of them)."""
 RUN_FLAGS: dict[str, dict[str, tuple[str, ...]]] = {
+    "expression": {"hold": ("--expression-hold",)},
     "rerun": {"viewer": ("--connect",)},
 }
 """Flags ``aamtrack run`` gives some of those options instead of the service's own.
@@ -164,8 +168,12 @@ def stack_options(args: argparse.Namespace, base: StackOptions | None = None) ->
                  *(["rerun"] if every["rerun"].has_output else [])]
     services = {name: every[name] for name in SERVICES if name in names}
     if launch.smooth is not None:
-        services.update({name: services[name].replace(smooth=launch.smooth)
-                         for name in ("fitter", "pose") if name in services})
+        if "fitter" in services:
+            fitter = services["fitter"]
+            services["fitter"] = fitter.replace(
+                tracking=fitter.tracking.replace(smoothing=launch.smooth))
+        if "pose" in services:
+            services["pose"] = services["pose"].replace(smooth=launch.smooth)
         if "expression" in services and not launch.smooth:
             services["expression"] = services["expression"].replace(hold=0)
     if "source" in services and not services["source"].has_input:
@@ -180,15 +188,14 @@ def profiled(name: str, options: Options | None, profile: Profile) -> Options:
     """Service ``name``'s options (its defaults, or a stack file's) with ``profile``'s
     choices; the command line's go over them."""
     options = options or SERVICES[name].options()
-    fit = profile.fitter
-    choices = {
-        "fitter": {"algorithm": fit.algorithm, "failure_test": fit.failure_test,
-                   "appearance": fit.appearance, "occlusion": fit.occlusion,
-                   "refine": fit.refine, "refine_with": fit.refine_with,
-                   "model_update": profile.update_method},
-        "pose": {"estimator": profile.pose_estimator},
-    }.get(name, {})
-    return options.replace(**choices) if profile.name != "default" else options
+    if profile.name == "default":
+        return options
+    if name == "fitter":
+        return options.replace(tracking=options.tracking.replace(fitting=profile.fitter),
+                               model_update=profile.update_method)
+    if name == "pose":
+        return options.replace(estimator=profile.pose_estimator)
+    return options
 
 
 FAST_CAPACITY = 1024
@@ -234,3 +241,11 @@ def parse_run_args(argv: Sequence[str]) -> StackOptions:
     parser = argparse.ArgumentParser(prog="aamtrack run")
     add_run_options(parser)
     return stack_options(parser.parse_args(list(argv)))
+
+
+def tracker_config(stack: StackOptions) -> TrackerConfig:
+    """The tracker's configuration a run carries out: the fitter's, with the expression
+    service's label hold (what :class:`aamcore.tracker.FaceTracker` takes for the same
+    run)."""
+    return stack.options("fitter").tracking.replace(expression_hold=stack.options("expression")
+                                                    .hold)

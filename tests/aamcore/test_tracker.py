@@ -17,7 +17,9 @@ from tests.expectations import FRAMES, GOOD_SHARE, check_poses
 
 @pytest.fixture(scope="module")
 def results(model_path: Path, classifier_path: Path, single_face: Path) -> list[FaceResult]:
-    return list(FaceTracker(model_path, classifier_path).process_video(single_face))
+    """The defaults: the default profile's classifier for the model (``classifier_path``,
+    trained on first use), smoothing and the stack's label hold."""
+    return list(FaceTracker(model=model_path).process_video(single_face))
 
 
 def test_every_frame_of_a_face_video_has_landmarks_pose_and_expression(
@@ -59,26 +61,28 @@ def test_a_classifier_made_for_other_fits_is_refused(model_path: Path, classifie
     other = replace(made, aam_fingerprint="0123456789abcdef")
     with pytest.raises(AAMMismatchError, match="made for the fits of model 0123456789abcdef by "
                        "local-binary, not for those of model [0-9a-f]{16} by local-binary"):
-        FaceTracker(model_path, other)
+        FaceTracker(model=model_path, classifier=other)
     with pytest.raises(AAMMismatchError, match="by local-binary, not for those of model "
                        "[0-9a-f]{16} by fixed-jacobian"):
-        FaceTracker(model_path, made, algorithm="fixed-jacobian")
-    blank = FaceTracker(model_path, classifier_path).process(np.full((360, 640, 3), 90, np.uint8))
+        FaceTracker(model=model_path, classifier=made, algorithm="fixed-jacobian")
+    blank = FaceTracker(model=model_path, classifier=classifier_path).process(
+        np.full((360, 640, 3), 90, np.uint8))
     assert blank.expression is None and blank.expression_reason == "no face"
 
 
 def test_smoothing_reduces_the_frame_to_frame_jitter(
     model_path: Path, single_face: Path, results: list[FaceResult]
 ) -> None:
-    smooth = list(FaceTracker(model_path, smoothing=True).process_video(single_face))
+    raw = list(FaceTracker(model=model_path, classifier=False, smoothing=False)
+               .process_video(single_face))
 
     def jitter(rs: list[FaceResult]) -> float:
         return float(np.mean([np.linalg.norm(b.landmarks - a.landmarks, axis=1).mean()
                               for a, b in zip(rs, rs[1:], strict=False)
                               if a.success and b.success]))
 
-    assert jitter(smooth) < 0.75 * jitter(results)
-    assert smooth[0].expression is None  # no classifier given
+    assert jitter(results) < 0.75 * jitter(raw)  # smoothed by default
+    assert raw[0].expression is None and raw[0].expression_reason == ""  # none asked for
 
 
 def test_good_fits_carry_occlusion_flags(results: list[FaceResult]) -> None:
@@ -90,11 +94,11 @@ def test_good_fits_carry_occlusion_flags(results: list[FaceResult]) -> None:
 
 
 def test_a_frame_without_a_face_and_a_bad_video(model_path: Path, tmp_path: Path) -> None:
-    tracker = FaceTracker(model_path)
+    tracker = FaceTracker(model=model_path)
     empty = tracker.process(np.full((360, 640, 3), 90, np.uint8), timestamp=1.5)
     assert not empty.success and empty.reason == "no face" and empty.landmarks.shape == (0, 2)
     assert empty.confidence == 0.0 and math.isnan(empty.yaw_deg) and empty.timestamp == 1.5
-    assert empty.to_dict()["rotation"] is None and empty.expression_reason == ""
+    assert empty.to_dict()["rotation"] is None and empty.expression_reason == "no face"
     bad = tmp_path / "bad.mp4"
     bad.write_bytes(b"not a video")
     with pytest.raises(OSError, match="not a video"):
@@ -107,9 +111,9 @@ def test_the_pose_estimator_can_be_chosen(
     from aamcore.io.video import video_frames
     from aamcore.pose.errors import PoseError
 
-    posit = FaceTracker(model_path, pose_estimator="posit")
+    posit = FaceTracker(model=model_path, classifier=False, pose_estimator="posit")
     assert posit.pose_method == "posit"
-    assert FaceTracker(model_path).pose_method == "contour"
+    assert FaceTracker(model=model_path, classifier=False).pose_method == "contour"
     both = 0
     for frame, contour in zip(video_frames(single_face)[:5], results[:5], strict=False):
         r = posit.process(frame)
@@ -119,7 +123,7 @@ def test_the_pose_estimator_can_be_chosen(
             assert abs(r.yaw_deg - contour.yaw_deg) < 10.0
     assert both >= 3
     with pytest.raises(PoseError, match="unknown pose estimator"):
-        FaceTracker(model_path, pose_estimator="eos")
+        FaceTracker(model=model_path, classifier=False, pose_estimator="eos")
 
 
 def test_bad_frames_mid_stream_give_clear_results(model_path: Path, single_face: Path) -> None:
@@ -128,7 +132,7 @@ def test_bad_frames_mid_stream_give_clear_results(model_path: Path, single_face:
     from aamcore.io.video import video_frames
 
     frames = video_frames(single_face)
-    tracker = FaceTracker(model_path)
+    tracker = FaceTracker(model=model_path, classifier=False)
     assert all(tracker.process(f).success for f in frames[:5])
     small = tracker.process(cv2.resize(frames[5], (320, 180)))  # another size: detected afresh
     assert small.landmarks.shape in ((0, 2), (68, 2)) and np.all(np.isfinite(small.landmarks))
@@ -148,7 +152,7 @@ def test_each_face_of_a_frame_gets_its_own_result_pose_and_expression(
 
     frames = video_frames(single_face)
     width = frames[0].shape[1]
-    tracker = FaceTracker(model_path, classifier_path, max_faces=2)
+    tracker = FaceTracker(model=model_path, classifier=classifier_path, max_faces=2)
     per_frame = [tracker.process_faces(np.hstack([frames[k], frames[k + 36]]), k / 30)
                  for k in range(24)]
     two = [faces for faces in per_frame if len(faces) == 2 and all(r.success for r in faces)]
@@ -164,7 +168,7 @@ def test_each_face_of_a_frame_gets_its_own_result_pose_and_expression(
     assert len(blank) == 1 and blank[0].face_id == -1 and not blank[0].success
     assert blank[0].reason == "no face" and json.loads(json.dumps(blank[0].to_dict()))[
         "face_id"] == -1
-    one = FaceTracker(model_path, classifier_path)
+    one = FaceTracker(model=model_path, classifier=classifier_path)
     again = [one.process(f) for f in frames[:12]]
     for a, b in zip(again, results[:12], strict=True):
         np.testing.assert_array_equal(a.landmarks, b.landmarks)

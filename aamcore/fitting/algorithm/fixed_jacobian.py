@@ -9,7 +9,7 @@ import numpy as np
 
 from aamcore.fitting.algorithm.base import AlgorithmSettings, ModelAlgorithm
 from aamcore.fitting.result import AAMFit, LandmarkFit
-from aamcore.fitting.training.update import UpdateMatrix
+from aamcore.fitting.update_matrix import UpdateMatrix
 from aamcore.model.aam import AAM
 from aamcore.model.similarity import Similarity
 

@@ -6,11 +6,13 @@ fern stages (:mod:`~aamcore.fitting.algorithm.ferns`). From the previous
 frame's landmarks (tracking) it goes through the fern stages alone and, where
 the cascade has restart stages, also afresh as dlib's tracker does: the mean
 shape placed by a similarity on those landmarks, through the restart stages and
-then the fern stages; the mean of the two fits is the frame's, so a tracked
-face keeps no error the expression left on the last frame. Every step is
-taken in the basis of :class:`~aamcore.fitting.shape_space.ShapeSpace` and the
-shape projected onto the shape model (3 sd) after each coarse stage and after
-the last fern stage. One more fern stage regresses the fit's ``log(NME)`` (its
+then the fern stages; the mean of the two fits, projected back onto the shape
+model, is the frame's, so a tracked face keeps no error the expression left on
+the last frame, and how far apart the two lay is the fit's ``disagreement`` (a
+cue of failure, ``bench/bench_failure_tests.py``). Every step is taken in the
+basis of :class:`~aamcore.fitting.shape_space.ShapeSpace` and every shape the
+method returns is projected onto the shape model (3 sd), as is each coarse
+stage's. One more fern stage regresses the fit's ``log(NME)`` (its
 quality score); above the model's calibrated threshold the fit has failed.
 
 The method reads the grey pixels of the face's region only (converted once per
@@ -25,7 +27,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import cv2
@@ -82,7 +84,6 @@ class LocalBinary:
         self.aam = aam
         space = cascade.space
         self.space = space
-        self._sim = Placement(space.mean).matrix
         self._frame = aam.shape.mean_shape if aam is not None else space.mean
         self._frame_place = Placement(self._frame)
         self._mean = space.mean
@@ -141,7 +142,7 @@ class LocalBinary:
         seconds = []
         for stage, hog in zip(self.cascade.coarse, self._hogs, strict=True):
             begun = time.perf_counter()
-            a, b = (shape.ravel() @ self._sim).tolist()
+            a, b = self._ab(shape)
             move = (hog.step(stage, image, shape) @ self._basis_t).reshape(-1, 2)
             shape = self.project(shape + move @ np.array([[a, b], [-b, a]]))
             seconds.append(time.perf_counter() - begun)
@@ -150,7 +151,8 @@ class LocalBinary:
     def track_points(self, image: np.ndarray, previous: np.ndarray) -> LandmarkFit:
         """Fit from landmarks (N, 2) of the previous frame: the fern stages from them and,
         where the cascade has restart stages, the mean of that fit and the one afresh from
-        the mean shape placed on them (:meth:`restart`), scored at the mean."""
+        the mean shape placed on them (:meth:`restart`), projected onto the shape model and
+        scored there; how far apart the two lay is its ``disagreement``."""
         previous = np.asarray(previous, np.float64)
         if not np.all(np.isfinite(previous)):
             return self._failed(previous, "non-finite start shape")
@@ -165,11 +167,15 @@ class LocalBinary:
         restarted = self._restart_shape(region, previous, seconds)
         # two fits of one frame whose errors are little correlated: their mean is steadier
         # and closer than either, or than the better-scored one (bench_tracking.py,
-        # bench_smoothing.py); scored where it lies, so that a fit half on a lost branch is
-        # not passed on the other's score
-        current = 0.5 * (tracked + restarted)
+        # bench_smoothing.py); a face again (the mean of two placed faces is not one) and
+        # scored where it lies, so that a fit half on a lost branch is not passed on the
+        # other's score
+        current = self.project(0.5 * (tracked + restarted))
         score, contrast = self._score(region, current)
-        return self._result(current + region.origin, seconds, score, contrast)
+        fit = self._result(current + region.origin, seconds, score, contrast)
+        apart = float(np.linalg.norm(tracked - restarted, axis=1).mean())
+        return replace(fit, disagreement=apart / (math.hypot(*self._ab(current))
+                                                  * self.space.eye_distance))
 
     def restart(self, image: np.ndarray, previous: np.ndarray) -> LandmarkFit:
         """Fit afresh from the mean shape placed on landmarks ``previous`` (N, 2): the restart
@@ -194,7 +200,7 @@ class LocalBinary:
     def placed_mean(self, shape: np.ndarray) -> np.ndarray:
         """The cascade's mean shape placed by the least-squares similarity on ``shape``
         (N, 2): where the restart stages start."""
-        a, b = (shape.ravel() @ self._sim).tolist()
+        a, b = self._ab(shape)
         return self._mean @ np.array([[a, b], [-b, a]]) + shape.mean(axis=0)
 
     def score(self, image: np.ndarray, points: np.ndarray) -> float:
@@ -208,8 +214,7 @@ class LocalBinary:
     def region(self, image: np.ndarray, shape: np.ndarray) -> _Region | None:
         """The grey region of ``image`` the stages read around ``shape`` (N, 2), None when it
         lies outside the frame."""
-        a, b = (shape.ravel() @ self._sim).tolist()
-        reach = self._reach * math.hypot(a, b)
+        reach = self._reach * math.hypot(*self._ab(shape))
         (xlo, ylo), (xhi, yhi) = shape.min(axis=0).tolist(), shape.max(axis=0).tolist()
         height, width = image.shape[:2]
         x0, y0 = max(math.floor(xlo - reach), 0), max(math.floor(ylo - reach), 0)
@@ -225,7 +230,7 @@ class LocalBinary:
 
     def project(self, shape: np.ndarray) -> np.ndarray:
         """``shape`` (N, 2) projected onto the shape model, parameters limited to 3 sd."""
-        a, b = (shape.ravel() @ self._sim).tolist()
+        a, b = self._ab(shape)
         centre = shape.mean(axis=0)
         s2 = a * a + b * b
         model = (shape - centre) @ np.array([[a / s2, -b / s2], [b / s2, a / s2]])
@@ -237,8 +242,14 @@ class LocalBinary:
         fitted += self._mean
         return fitted @ np.array([[a, b], [-b, a]]) + centre
 
+    def _ab(self, shape: np.ndarray) -> tuple[float, float]:
+        """``(a, b)`` of the mean shape's least-squares placement on ``shape`` (N, 2): the
+        shape space's one :class:`~aamcore.model.similarity.Placement`."""
+        a, b = self.space.similarity(shape).tolist()
+        return a, b
+
     def _rot(self, shape: np.ndarray) -> np.ndarray:
-        a, b = shape.ravel() @ self._sim
+        a, b = self._ab(shape)
         return np.array([[a, -b], [b, a]])
 
     def _fern_fit(self, image: np.ndarray, shape: np.ndarray, seconds: list[float]

@@ -10,6 +10,7 @@ the one before.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -80,7 +81,7 @@ class MultiResolution:
             errors += result.errors
             iterations += result.iterations
         assert result is not None
-        result.similarity = sim
+        result = replace(result, similarity=sim)
         if len(self.levels) > 1:
             # The coarse levels can also lead a near start astray: keep the
             # full-resolution fit from the start itself when it explains the
@@ -90,5 +91,4 @@ class MultiResolution:
             iterations += direct.iterations
             if direct.error < result.error:
                 result = direct
-        result.seconds, result.errors, result.iterations = seconds, errors, iterations
-        return result
+        return replace(result, seconds=seconds, errors=errors, iterations=iterations)

@@ -14,6 +14,7 @@ orthonormal basis of similarity directions and shape modes used by
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -133,5 +134,4 @@ class SupervisedDescent(ModelAlgorithm):
         c = self.aam.combined.params(b, b_g.astype(np.float64))
         fit = self.result(shape, c, sim, g - self.residual.model_texture(c),
                           iterations=len(seconds), seconds=seconds)
-        fit.errors = [fit.error]
-        return fit
+        return replace(fit, errors=[fit.error])

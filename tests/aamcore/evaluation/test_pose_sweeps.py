@@ -27,7 +27,7 @@ class CountingTracker:
     """The library's face tracker as ``track(frames) -> landmarks``, counting its calls."""
 
     def __init__(self, model_path: Path) -> None:
-        self.tracker = FaceTracker(model_path)
+        self.tracker = FaceTracker(model=model_path, classifier=False, smoothing=False)
         self.calls = 0
 
     def __call__(self, frames: Iterable[np.ndarray]) -> list[np.ndarray | None]:

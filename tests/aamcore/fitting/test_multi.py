@@ -128,7 +128,7 @@ def test_bad_frames_lose_every_face_and_the_next_good_ones_find_them(fitter: Fit
 def test_a_policy_that_cannot_work_is_refused(fitter: Fitter) -> None:
     with pytest.raises(ValueError, match="max_faces"):
         MultiTracker(fitter, max_faces=0)
-    with pytest.raises(ValueError, match="new-face policy"):
+    with pytest.raises(ValueError, match="every 0: must be a whole number from 1"):
         NewFaces(every=0)
     with pytest.raises(ValueError, match="overlap"):
         NewFaces(overlap=0.0)
@@ -146,3 +146,31 @@ def test_boxes_overlap_over_the_smaller_one_and_tracked_faces_are_blanked() -> N
     out = blanked(grey, [Fit()])  # type: ignore[list-item]
     assert (out[40:60, 40:60] == int(grey.mean())).all() and (out[0] == grey[0]).all()
     assert blanked(grey, []) is grey
+
+
+def test_ids_are_kept_through_a_crossing(fitter: Fitter, lfpw_dir: Path) -> None:
+    """Two held-out faces; the second passes in front of the first and back. Outside the
+    crossing each face keeps the id it had before it."""
+    from aamcore.io import load_annotated_folder
+    from aamcore.io.splits import split
+    from aamcore.synth.group import FacePath, group_scene
+
+    _, test = split(load_annotated_folder(lfpw_dir).samples, "lfpw")
+    end = 59
+    paths = [FacePath(((0, 480, 270), (end, 470, 280))),
+             FacePath(((0, 200, 290), (end * 0.45, 760, 280), (end, 200, 270)))]
+    scene = group_scene([(test[k].load_image(), test[k].points) for k in (4, 9)], paths,
+                        end + 1, seed=1)
+    tracker = MultiTracker(fitter, max_faces=2)
+    ids: list[list[int]] = [[], []]
+    for k, frame in enumerate(scene.frames):
+        found, _ = tracker.track(frame)
+        for i in range(2):
+            truth = scene.truths[k, i]
+            if scene.crossing[k, i] or not scene.in_view[k, i]:
+                continue
+            near = [f.face_id for f in found if np.linalg.norm(
+                f.fit.points.mean(axis=0) - truth.mean(axis=0)) < 0.5 * np.ptp(truth[:, 0])]
+            ids[i] += near[:1]
+    assert scene.crossing.any() and all(len(seen) >= 20 for seen in ids)
+    assert len(set(ids[0])) == 1 and len(set(ids[1])) == 1 and ids[0][0] != ids[1][0], ids

@@ -20,5 +20,5 @@ def test_the_frames_after_a_loss_are_searched_both_ways_then_spread() -> None:
 
 def test_every_frame_searches_both_ways_and_bad_schedules_are_refused() -> None:
     assert all(SearchSchedule.every_frame().passes(k) == (True, True) for k in range(50))
-    with pytest.raises(ValueError, match="not a search schedule"):
+    with pytest.raises(ValueError, match="upright_every 0: must be a whole number from 1"):
         SearchSchedule(upright_every=0)

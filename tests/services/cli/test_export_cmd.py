@@ -97,7 +97,7 @@ def test_a_damaged_recording_keeps_what_came_before_and_exits_1(
 
 
 def test_track_writes_the_rows_of_a_video_and_says_when_it_is_cut_short(
-    single_face: Path, model_path: Path, tmp_path: Path,
+    single_face: Path, model_path: Path, classifier_path: Path, tmp_path: Path,
     run_cli: Callable[..., subprocess.CompletedProcess[str]],
 ) -> None:
     out, drawn = tmp_path / "track.csv", tmp_path / "track.mp4"
@@ -112,6 +112,10 @@ def test_track_writes_the_rows_of_a_video_and_says_when_it_is_cut_short(
     rows = list(csv.DictReader(out.open()))
     assert len(rows) == FRAMES and sum(r["success"] == "1" for r in rows) >= GOOD_SHARE * FRAMES
     assert all(r["pose_Tz"] for r in rows if r["success"] == "1")
+    # expressions by default (the default profile's classifier for the model,
+    # ``classifier_path``): a label or the reason there is none on every row
+    assert all(bool(r["expression"]) != bool(r["expression_reason"]) for r in rows)
+    assert sum(bool(r["expression"]) for r in rows) >= GOOD_SHARE * FRAMES
     avi = tmp_path / "clip.avi"
     capture = cv2.VideoCapture(str(single_face))
     writer = cv2.VideoWriter(str(avi), cv2.VideoWriter_fourcc(*"MJPG"), 30, (640, 360))
@@ -136,9 +140,10 @@ def test_track_writes_a_row_per_face_with_its_id(
     two = two_faces
     out = tmp_path / "two.csv"
     done = run_cli("track", str(two), "--csv", str(out), "--model", str(model_path),
-                   "--max-faces", "2")
+                   "--max-faces", "2", "--no-expression")
     assert done.returncode == 0, done.stderr
     rows = list(csv.DictReader(out.open()))
+    assert not any(r["expression"] or r["expression_reason"] for r in rows)
     by_frame: dict[str, list[dict[str, str]]] = {}
     for r in rows:
         by_frame.setdefault(r["frame"], []).append(r)
@@ -147,7 +152,8 @@ def test_track_writes_a_row_per_face_with_its_id(
     assert len(pairs) >= GOOD_SHARE * 20
     assert len({tuple(r["face_id"] for r in fs) for fs in pairs}) == 1
     done = run_cli("track", str(two), "--csv", str(out), "--max-faces", "0", timeout=60)
-    assert done.returncode == 2 and "--max-faces 0: must be 1 to" in done.stderr
+    assert done.returncode == 2 and "--max-faces 0: must be a whole number from 1 to 64" in (
+        done.stderr)
 
 
 def test_outputs_and_numbers_are_checked_before_any_work(
@@ -163,7 +169,7 @@ def test_outputs_and_numbers_are_checked_before_any_work(
         (("track", str(single_face), "--jsonl", str(tmp_path), "--model", str(model_path)),
          "is a folder"),
         (("track", str(single_face), "--csv", str(tmp_path / "a.csv"), "--fov", "-5"),
-         "--fov -5: must be a number from 1 to 179"),
+         "--fov -5.0: must be a number from 1 to 179"),
         (("export", str(single_face), "--rrd", "/proc/x.rrd"), "--rrd /proc/x.rrd"),
         (("record", "--out", "/proc/x.rec"), "--out /proc/x.rec: cannot be written"),
         (("track", str(single_face), "--annotate", str(tmp_path / "no" / "a.mp4")),

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from aamcore.fitting.config import FITTER
+from aamcore.tracker_config import TRACKER
 from services.bus.options import OptionError
 from services.stack.options import parse_run_args
 
@@ -12,12 +12,12 @@ from services.stack.options import parse_run_args
 def test_default_run_starts_every_stage_and_smooths() -> None:
     opts = parse_run_args(["--video", "clip.mp4"])
     assert list(opts.services) == ["source", "detector", "fitter", "pose", "expression", "ar"]
-    assert opts.services["fitter"].smooth and opts.services["pose"].smooth
+    assert opts.services["fitter"].tracking.smoothing and opts.services["pose"].smooth
 
 
 def test_no_smooth_reaches_fitter_and_pose() -> None:
     opts = parse_run_args(["--video", "clip.mp4", "--no-smooth"])
-    assert not opts.services["fitter"].smooth
+    assert not opts.services["fitter"].tracking.smoothing
     assert not opts.services["pose"].smooth
     assert opts.services["expression"].hold == 0
     assert parse_run_args(["--video", "clip.mp4"]).services["expression"].hold > 0
@@ -58,19 +58,22 @@ def test_fast_pacing_keeps_every_fit_for_pose_and_expression() -> None:
     assert live["expression"].capacity == ExpressionOptions().capacity < FAST_CAPACITY
     chosen = parse_run_args(["--video", "clip.mp4", "--pace", "fast"])
     assert chosen.services["fitter"].algorithm == "local-binary"
-    assert chosen.services["fitter"].failure_test == "auto" and chosen.services["fitter"].appearance
+    fitting = chosen.services["fitter"].tracking.fitting
+    assert fitting.failure_test == "auto" and fitting.appearance
 
 
 def test_a_profile_sets_each_stage_and_given_options_override_it() -> None:
     thesis = parse_run_args(["--video", "x.mp4", "--profile", "thesis"])
     fitter, pose = thesis.services["fitter"], thesis.services["pose"]
-    assert (fitter.algorithm, fitter.failure_test, pose.estimator) == (
+    fitting = fitter.tracking.fitting
+    assert (fitting.algorithm, fitting.failure_test, pose.estimator) == (
         "fixed-jacobian", "eq7.2", "posit")
-    assert thesis.launch.profile == "thesis" and fitter.appearance
+    assert thesis.launch.profile == "thesis" and fitting.appearance
     mixed = parse_run_args(["--video", "x.mp4", "--profile", "thesis", "--estimator", "contour",
                             "--no-occlusion", "--refine", "2"])
     assert mixed.services["pose"].estimator == "contour"
-    assert mixed.services["fitter"].algorithm == "fixed-jacobian"
-    assert not mixed.services["fitter"].occlusion and mixed.services["fitter"].refine == 2
+    fitting = mixed.services["fitter"].tracking.fitting
+    assert fitting.algorithm == "fixed-jacobian"
+    assert fitting.occlusion is False and fitting.refine == 2
     default = parse_run_args(["--video", "x.mp4"])
-    assert default.services["fitter"].config() == FITTER
+    assert default.services["fitter"].config() == TRACKER

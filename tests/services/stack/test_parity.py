@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 
 from aamcore import FaceTracker
-from aamcore.expression.recogniser import STACK_HOLD
 from services.stack.export import results_of
 from services.stack.launcher import Stack
 from services.stack.options import StackOptions
@@ -39,8 +38,7 @@ def test_library_and_stack_agree_on_every_frame(
     assert not any(missing.values()), missing
     # The stack smooths and holds expression labels by default, on the file's clock as the
     # library does when asked: the same results however fast the run went.
-    tracker = FaceTracker(model_path, classifier_path, smoothing=True,
-                          expression_hold=STACK_HOLD)
+    tracker = FaceTracker(model=model_path, classifier=classifier_path)  # the defaults agree
     assert sorted(expressions) == list(range(72))  # every fit answered, a label or why not
     for k, result in enumerate(tracker.process_video(single_face)):
         fit = fits[k]
@@ -84,8 +82,7 @@ def test_library_and_stack_agree_on_every_face_of_every_frame(
     messages = load_messages(rec)
     by_face = {kind: {(m.header.frame_index, m.face_id): m for m in messages if kind == m.KIND}
                for kind in ("fit", "pose", "expression")}
-    tracker = FaceTracker(model_path, classifier_path, smoothing=True,
-                          expression_hold=STACK_HOLD, max_faces=2)
+    tracker = FaceTracker(model=model_path, classifier=classifier_path, max_faces=2)
     both = 0
     for k, results in enumerate(tracker.process_video_faces(two)):
         fits = [m for (i, _), m in by_face["fit"].items() if i == k]

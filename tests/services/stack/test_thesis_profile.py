@@ -12,7 +12,6 @@ from threadpoolctl import threadpool_limits
 
 from aamcore import FaceTracker
 from aamcore.expression import ExpressionClassifier
-from aamcore.expression.recogniser import STACK_HOLD
 from aamcore.expression.training import classifier_path as cached_classifier
 from aamcore.profiles import profile_named
 from services.stack.launcher import Stack, prepared
@@ -36,7 +35,8 @@ def test_the_thesis_profile_runs_end_to_end_and_the_library_agrees(
     opts = stack_options(single_face, ar=False, record=str(rec), warp="cpu", profile="thesis",
                          classifier=None)
     fitter, pose = opts.services["fitter"], opts.services["pose"]
-    assert (fitter.algorithm, fitter.failure_test, pose.estimator) == (
+    fitting = fitter.tracking.fitting
+    assert (fitting.algorithm, fitting.failure_test, pose.estimator) == (
         "fixed-jacobian", "eq7.2", "posit")
     opts = prepared(opts)
     # the launcher found (or trained) the thesis classifier of these fits
@@ -58,9 +58,9 @@ def test_the_thesis_profile_runs_end_to_end_and_the_library_agrees(
     assert with_face and all(f.appearance is not None and f.warp_path == "cpu"
                              for f in with_face)
     assert max(f.appearance.iterations for f in with_face) >= 1
-    tracker = FaceTracker(model_path, thesis_classifier, profile="thesis", smoothing=True,
-                          expression_hold=STACK_HOLD)
-    assert profile_named("thesis").fitter == tracker.config
+    tracker = FaceTracker(model=model_path, classifier=thesis_classifier, profile="thesis",
+                          warp="cpu")
+    assert profile_named("thesis").fitter == tracker.config.fitting
     # The services run on one BLAS thread: so does the library here, else the AAM's
     # iterations may differ in the last bits (0.004 px seen with two threads).
     with threadpool_limits(limits=1):

@@ -1,16 +1,20 @@
-"""One state per face of a run's fits (a service's smoothing, pose tracker or expression
-recogniser), as the library keeps one per face (:class:`aamcore.tracker.FaceTracker`)."""
+"""One state per face id (smoothing, a pose tracker, an expression recogniser), kept by one
+rule in the library (:class:`aamcore.tracker.FaceTracker`) and the services (pose,
+expression): a face not seen for :attr:`~aamcore.fitting.config.NewFaces.forget_frames`
+frames is forgotten, as its id can no longer be regained."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from typing import Generic, TypeVar
 
+from aamcore.fitting.config import NewFaces
+
 T = TypeVar("T")
 
-FORGET_FRAMES = 90
-"""Frames after which a face not seen is forgotten (as long as its id can be regained,
-``aamcore.fitting.multi.NewFaces.hidden_frames``)."""
+FORGET_FRAMES = NewFaces().forget_frames
+"""Frames after which a face not seen is forgotten by default: as long as its id can be
+regained."""
 
 
 class PerFace(Generic[T]):
@@ -18,8 +22,8 @@ class PerFace(Generic[T]):
 
     The first state, made up front, serves the first face that needs one while no other
     face holds it (with one face at a time, always the same one); any other face gets a
-    new one. A face not seen for :data:`FORGET_FRAMES` frames (or seen on a later frame
-    than this one: the source went back) is forgotten.
+    new one. A face not seen for ``forget_frames`` frames (or seen on a later frame than
+    this one: the source went back) is forgotten.
 
     Parameters
     ----------
@@ -29,19 +33,23 @@ class PerFace(Generic[T]):
         Starts a state afresh (the first one, when a new face takes it over).
     first : optional
         The first state (made by ``make`` if not given).
+    forget_frames : int
+        :attr:`NewFaces.forget_frames <aamcore.fitting.config.NewFaces.forget_frames>` of
+        the tracker whose faces these are.
     """
 
     def __init__(self, make: Callable[[], T], reset: Callable[[T], None],
-                 first: T | None = None) -> None:
+                 first: T | None = None, forget_frames: int = FORGET_FRAMES) -> None:
         self.make = make
         self.reset = reset
+        self.forget_frames = forget_frames
         self.first = make() if first is None else first
         self._faces: dict[int, tuple[T, int]] = {}
 
     def of(self, face_id: int, frame_index: int) -> T:
         """The state of face ``face_id``, seen on frame ``frame_index``."""
         self._faces = {k: v for k, v in self._faces.items()
-                       if 0 <= frame_index - v[1] <= FORGET_FRAMES}
+                       if 0 <= frame_index - v[1] <= self.forget_frames}
         known = self._faces.get(face_id)
         if known is None:
             if any(state is self.first for state, _ in self._faces.values()):
@@ -53,6 +61,15 @@ class PerFace(Generic[T]):
             state = known[0]
         self._faces[face_id] = (state, frame_index)
         return state
+
+    def known(self, face_id: int) -> T | None:
+        """The state of face ``face_id`` if it is remembered, without seeing it."""
+        known = self._faces.get(face_id)
+        return None if known is None else known[0]
+
+    def ids(self) -> list[int]:
+        """The faces remembered."""
+        return list(self._faces)
 
     def states(self) -> list[T]:
         """Every face's state."""

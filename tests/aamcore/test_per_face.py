@@ -1,8 +1,8 @@
-"""services.bus.faces: one state per face id, the first kept for the one face at a time."""
+"""aamcore.per_face: one state per face id, the first kept for the one face at a time."""
 
 from __future__ import annotations
 
-from services.bus.faces import FORGET_FRAMES, PerFace
+from aamcore.per_face import FORGET_FRAMES, PerFace
 
 
 def test_each_face_has_its_state_and_the_first_serves_one_face_at_a_time() -> None:
