@@ -86,7 +86,12 @@ class Fitter:
         regressor = algorithm in REGRESSORS
         self.regressor = regressor
         sample = regressor and (appearance or refine > 0 or self.failure_test in APPEARANCE_TESTS)
-        self.sampler = AppearanceSampler(self.aam, warp) if sample else None
+        judged = occlusion and model.occlusion is not None and (sample or not regressor)
+        test = OcclusionTest(model.occlusion, self.aam) if judged else None
+        self.sampler = AppearanceSampler(self.aam, test, warp) if sample else None
+        # flags where the algorithm leaves an appearance of its own: the sampler's pass
+        self.occlusion = (self.sampler or AppearanceSampler(self.aam, test, warp)) if test else None
+        self._grey = getattr(self.algorithm, "grey_region", lambda image: None)
         self.refiner = None
         self.refine = refine
         if regressor and refine > 0:
@@ -94,8 +99,6 @@ class Fitter:
                 raise ValueError(f"cannot refine with {refine_with!r}: choose one of {REFINERS}")
             settings = AlgorithmSettings(warp, refine)
             self.refiner = make_algorithm(refine_with, model, settings)
-        judged = occlusion and model.occlusion is not None and (sample or not regressor)
-        self.occlusion = OcclusionTest(model.occlusion, self.aam) if judged else None
         self.zero = np.zeros(self.aam.n_appearance)
 
     @classmethod
@@ -150,8 +153,8 @@ class Fitter:
         if isinstance(fit, AAMFit) and not fit.failed:
             if self.failure_test in APPEARANCE_TESTS:
                 _judge(fit, self.failure(fit.c, fit.points))
-            if not fit.failed and self.occlusion is not None:
-                fit.occluded = self.occlusion(fit)
+            if not fit.failed and self.occlusion is not None and fit.occluded is None:
+                fit.occluded = self.occlusion.project_frame(image, fit.points).occluded
         if fit.failed:
             fit.confidence = 0.0
         elif self.quality is not None:
@@ -171,9 +174,10 @@ class Fitter:
         """A regressor's good ``fit`` with the AAM's appearance at its landmarks, refined
         by a few fixed-Jacobian iterations where asked."""
         assert self.sampler is not None
-        found = self.sampler.project_frame(image, fit.points)
+        found = self.sampler.project_frame(image, fit.points, self._grey(image))
         sampled = AAMFit.of_landmarks(fit, found.c, found.residual, found.error,
-                                      errors=[found.error], texture=found.texture)
+                                      errors=[found.error], texture=found.texture,
+                                      occluded=found.occluded)
         if self.refiner is None or not np.all(np.isfinite(found.c)):
             return sampled
         prepared = self.aam.prepare_image(image, fit.points)  # the AAM may leave the box

@@ -35,6 +35,7 @@ from aamcore.detection.haar import to_grey_uint8
 from aamcore.fitting.algorithm.base import AlgorithmSettings
 from aamcore.fitting.algorithm.ferns import FernRunner
 from aamcore.fitting.algorithm.local_hog import LandmarkHog
+from aamcore.fitting.appearance import GreyRegion
 from aamcore.fitting.learned import BinaryCascade
 from aamcore.fitting.result import LandmarkFit
 from aamcore.model.aam import AAM
@@ -220,8 +221,20 @@ class LocalBinary:
         if roi.ndim == 3:
             roi = cv2.cvtColor(roi, cv2.COLOR_BGR2GRAY)
         pixels = np.ascontiguousarray(roi).ravel()
-        return _Region(pixels, x1 - x0, (x1 - x0 - 1.0, y1 - y0 - 1.0),
-                       np.array([x0, y0], dtype=np.float64))
+        region = _Region(pixels, x1 - x0, (x1 - x0 - 1.0, y1 - y0 - 1.0),
+                         np.array([x0, y0], dtype=np.float64))
+        self._last = (image, region)
+        return region
+
+    def grey_region(self, image: np.ndarray) -> GreyRegion | None:
+        """The grey part of ``image`` that the last fit read (the appearance samples it
+        rather than convert the face again), None when the last fit read another image."""
+        last = getattr(self, "_last", None)
+        if last is None or last[0] is not image:
+            return None
+        region = last[1]
+        x0, y0 = region.origin.tolist()
+        return GreyRegion(region.pixels.reshape(-1, region.width), (int(x0), int(y0)))
 
     def project(self, shape: np.ndarray) -> np.ndarray:
         """``shape`` (N, 2) projected onto the shape model, parameters limited to 3 sd."""
