@@ -40,7 +40,8 @@ def occlusion(synthetic_aam, synthetic_faces) -> OcclusionModel:
 def test_the_learned_part_round_trips_and_is_checked(occlusion, synthetic_aam) -> None:
     header, arrays = occlusion.arrays("occ")
     again = OcclusionModel.from_arrays(header, arrays, "occ")
-    assert again.threshold == occlusion.threshold and again.n_points == synthetic_aam.scheme.n_points
+    assert again.threshold == occlusion.threshold
+    assert again.n_points == synthetic_aam.scheme.n_points
     for name in OcclusionModel.ARRAYS:
         assert np.array_equal(getattr(again, name), getattr(occlusion, name))
     report = occlusion.report
