@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -78,8 +79,9 @@ def appearance_cost(model: FittingModel, frames: list[np.ndarray], boxes: list) 
     the fitter's process), the blocks in turn, three times over; frame ``k`` of one
     variant is paired with frame ``k`` of the landmarks' block of the same pass.
     """
-    fitters = {name: Fitter(model, **kw) for name, kw in VARIANTS.items()}
-    times: dict[str, list[float]] = {name: [] for name in VARIANTS}
+    fitters = {name: Fitter(model, **kw) for name, kw in VARIANTS.items()
+               if "refine" not in kw or model.updates}
+    times: dict[str, list[float]] = {name: [] for name in fitters}
     with threadpool_limits(1):
         for _ in range(3):
             for name, fitter in fitters.items():
@@ -103,10 +105,118 @@ def appearance_cost(model: FittingModel, frames: list[np.ndarray], boxes: list) 
     return added["+ occlusion flags (the default)"]
 
 
+def part_split(model: FittingModel, frames: list[np.ndarray], box: np.ndarray) -> None:
+    """Print where the default method's tracked frame goes, part by part (median ms of each
+    part timed alone at the tracked landmarks, the parts in turn on each frame of the video,
+    five times; the fitter's own work is the whole less the parts)."""
+    fitter = Fitter(model)
+    lb, sampler = fitter.algorithm, fitter.sampler
+    fits, previous = [], fitter.fit_box(frames[0], box)
+    for frame in frames[1:]:
+        fits.append((frame, previous))
+        previous = fitter.track(frame, previous)
+    regions = [lb.region(f, p.points) for f, p in fits]
+    starts = [lb.placed_mean(p.points) - r.origin for (_, p), r in zip(fits, regions, strict=True)]
+    restarted = [lb.project(lb._stages(r, s, lb._restart, [])) for r, s in
+                 zip(regions, starts, strict=True)]
+    pairs = [np.stack([p.points - r.origin, s]) for (_, p), r, s in
+             zip(fits, regions, restarted, strict=True)]
+    ends = [lb._paired_stages(r, b, []) for r, b in zip(regions, pairs, strict=True)]
+    tracked = [fitter.track(f, p).points for f, p in fits]
+    greys = [(r.pixels.reshape(-1, r.width), t - r.origin) for r, t in
+             zip(regions, tracked, strict=True)]
+    found = [sampler._sample(*g) for g in greys]
+    features = [sampler._features(*x) for x in found]
+    outside = np.zeros(model.aam.scheme.n_points, bool)
+    parts: dict[str, Callable[[int], object]] = {
+        "Fitter.track, the default (all)": lambda k: fitter.track(*fits[k]),
+        "grey region of the face (cvtColor)": lambda k: lb.region(fits[k][0], fits[k][1].points),
+        "restart stages (3) + projection": lambda k: lb.project(lb._stages(
+            regions[k], starts[k], lb._restart, [])),
+        "fern stages (3, both fits at once)": lambda k: lb._paired_stages(regions[k], pairs[k],
+                                                                          []),
+        "projections + quality score": lambda k: lb._score(regions[k], 0.5 * (
+            lb.project(ends[k][0]) + lb.project(ends[k][1]))),
+        "appearance: warp, c, residual (one pass)": lambda k: sampler._sample(*greys[k]),
+        "  of it, the box warp (remap)": lambda k: sampler.box.sample(*greys[k]),
+        "occlusion: features (Sobel, discs)": lambda k: sampler._features(*found[k]),
+        "occlusion: two networks": lambda k: fitter.sampler.occlusion(features[k], outside),
+    }
+    if fitter.sampler.occlusion is None:
+        parts = {k: v for k, v in parts.items() if not k.startswith("occlusion")}
+    times: dict[str, list[float]] = {name: [] for name in parts}
+    with threadpool_limits(1):  # the parts in turn on each frame: each sees the same load
+        for _ in range(5):
+            for k in range(len(fits)):
+                for name, part in parts.items():
+                    t0 = time.perf_counter()
+                    part(k)
+                    times[name].append(time.perf_counter() - t0)
+    medians = {name: 1000 * float(np.median(v)) for name, v in times.items()}
+    whole = medians.pop("Fitter.track, the default (all)")
+    print(f"\n{'where a tracked frame goes (default method)':<44}{'ms':>8}{'share':>8}")
+    for name, ms in medians.items():
+        print(f"{name:<44}{ms:>8.3f}{ms / whole:>8.1%}")
+    rest = whole - sum(ms for n, ms in medians.items() if not n.startswith("  "))
+    print(f"{'the fitter and the glue (the rest)':<44}{rest:>8.3f}{rest / whole:>8.1%}")
+    print(f"{'all':<44}{whole:>8.3f}")
+
+
+DLIB_PREDICTOR = Path(os.environ.get(
+    "DLIB_PREDICTOR", Path.home() / ".cache/aamtrack/dlib/shape_predictor_68_face_landmarks.dat"))
+"""dlib's 68-point model (``bench_vs_dlib.py`` finds it the same way)."""
+
+
+def versus_dlib(model: FittingModel, frames: list[np.ndarray], box: np.ndarray,
+                passes: int = 5) -> float | None:
+    """The default method's tracking (appearance and flags) against dlib's predictor in the
+    same run, each from its own previous landmarks (dlib on the grey frame, converted outside
+    its timing, from its previous landmarks' box), in turns; the ratio of the rates (None
+    without dlib or its model)."""
+    try:
+        import dlib
+    except ImportError:
+        print("\ndlib is not installed: no comparison (pip install dlib-bin)")
+        return None
+    if not DLIB_PREDICTOR.exists():
+        print(f"\nno dlib model at {DLIB_PREDICTOR} (set DLIB_PREDICTOR): no comparison")
+        return None
+    predictor = dlib.shape_predictor(str(DLIB_PREDICTOR))
+    greys = [cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames]
+    fitter = Fitter(model)
+
+    def dlib_step(grey: np.ndarray, previous: np.ndarray) -> np.ndarray:
+        (x0, y0), (x1, y1) = previous.min(axis=0), previous.max(axis=0)
+        rect = dlib.rectangle(int(x0), int(y0), int(x1), int(y1))
+        shape = predictor(grey, rect)
+        return np.array([(p.x, p.y) for p in shape.parts()], np.float64)
+
+    ours, theirs = [], []
+    with threadpool_limits(1):
+        for _ in range(passes):
+            previous = fitter.fit_box(frames[0], box)
+            for frame in frames[1:]:
+                t0 = time.perf_counter()
+                previous = fitter.track(frame, previous)
+                ours.append(time.perf_counter() - t0)
+            points = previous.points
+            for grey in greys[1:]:
+                t0 = time.perf_counter()
+                points = dlib_step(grey, points)
+                theirs.append(time.perf_counter() - t0)
+    mine, dlibs = float(np.median(ours)), float(np.median(theirs))
+    print(f"\nthe same run, {passes} passes in turns: Fitter.track (appearance and flags) "
+          f"{1000 * mine:.3f} ms ({1 / mine:.0f} fits/s), dlib {1000 * dlibs:.3f} ms "
+          f"({1 / dlibs:.0f} fits/s)")
+    return dlibs / mine
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", type=Path, help="fitting model (default: the default one)")
     parser.add_argument("--letterbox", action="store_true", help="frames on a 640x480 canvas")
+    parser.add_argument("--methods", nargs="+", default=list(ALGORITHMS),
+                        help="the methods of the first table (default: all)")
     args = parser.parse_args()
     cv2.setNumThreads(1)
     frames = video_frames(data_root() / "videos" / "single_face.mp4")
@@ -130,7 +240,7 @@ def main() -> None:
           f"{'iters':>6}")
     results = {}
     with threadpool_limits(1):
-        for name in ALGORITHMS:
+        for name in args.methods:
             fitter = Fitter(model, name)
             box_times, track_times, iterations = [], [], []
             previous = None
@@ -152,6 +262,10 @@ def main() -> None:
             print(f"{fitter.name:<44}{track:>13.0f}{track_ms:>7.2f}{box_rate:>11.0f}{box_ms:>7.2f}"
                   f"{np.mean(iterations):>6.1f}")
     added = appearance_cost(model, frames, boxes)
+    first = next(b for b in boxes if b is not None)
+    start = next(k for k, b in enumerate(boxes) if b is not None)
+    part_split(model, frames[start:], first)
+    ratio = versus_dlib(model, frames[start:], first)
     track, box_rate = results[defaults.ALGORITHM]
     print(f"\nfor the default method ({defaults.ALGORITHM}):")
     print(f"{'PASS' if track >= 1000 else 'FAIL'}: tracking {track:.0f} fits/s (target >= 1000)")
@@ -159,6 +273,9 @@ def main() -> None:
           "(target >= 50)")
     print(f"{'PASS' if added <= 0.5 else 'FAIL'}: the AAM's appearance and occlusion flags add "
           f"{added:.3f} ms per tracked frame (median; target <= 0.5)")
+    if ratio is not None:
+        print(f"{'PASS' if ratio >= 2.2 else 'FAIL'}: tracking with appearance and flags "
+              f"{ratio:.2f}x dlib's rate in the same run (target >= 2.2x)")
     if "supervised-descent" in results:
         track = results["supervised-descent"][0]
         print(f"{'PASS' if track >= 300 else 'FAIL'}: supervised-descent (the AAM methods' best) "

@@ -6,27 +6,34 @@ Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_occlusion.py [--model FILE
 The tracker runs as the library runs it (:class:`aamcore.tracker.FaceTracker`,
 the default profile: local-binary landmarks, the AAM's appearance and its
 occlusion flags on every good fit; no smoothing) on the tracking bench's
-sequences (``bench_tracking.py``: held-out photos of LFPW, HELEN and AFW
-moved, lit and blurred; every second one with a skin-coloured hand crossing
-the face in frames 40 % to 60 %). The ground truth of each frame says, per
-landmark, the share of its part of the face (a disc of 0.08 face widths
-around it, :data:`aamcore.synth.motion.PART_RADIUS`) that the hand covers.
+sequences (``bench_tracking.py``: held-out photos of LFPW, HELEN and AFW, faces
+the fitting model and its occlusion test never saw, moved, lit and blurred),
+every second one with an occluder in frames 40 % to 60 %, its kind taken in
+turn from :data:`KINDS`: the skin-coloured hand crossing the face, a hand
+resting on it (skin tones from light to dark), an object (flat, shaded or
+patterned), a lock of hair, sunglasses, the frame's edge (the face slides a
+quarter to a half out of the frame) (:mod:`aamcore.synth.motion`,
+:mod:`aamcore.fitting.training.occluders`). The ground truth of each frame
+says, per landmark, the share of its part of the face (a disc of 0.08 face
+widths around it) that the occluder hides (beyond the frame's edge counts as
+hidden, but for the crossing hand).
 
 Scored on the frames with a good fit (a failed fit or no face has no flags;
 the occluded frames without one are counted apart): a landmark is
-**covered** when at least half its part of the face is under the hand and
-**visible** when none of it is; the landmarks in between (the hand's edge)
+**covered** when at least half its part of the face is hidden and
+**visible** when none of it is; the landmarks in between (the occluder's edge)
 are counted, not scored. Reported: the share of covered landmarks flagged,
-of visible ones flagged in the sequences with the hand and in those without
-it, and of the landmarks flagged on ``videos/single_face.mp4`` (a talking
-face, nothing covering it).
+of visible ones flagged in the sequences with an occluder and in those without
+one, per set and per kind, and of the landmarks flagged on
+``videos/single_face.mp4`` (a talking face, nothing covering it).
 
-Targets: >= 90 % of the covered landmarks flagged, <= 5 % of the visible ones.
+Targets: >= 85 % of the covered landmarks flagged, <= 5 % of the visible ones,
+<= 2 % of the landmarks of ``single_face.mp4``.
 
 Also the expression gate's "face covered" rule per frame
 (:attr:`aamcore.expression.spec.QualityLimits.max_covered`: the share of the inner
-landmarks flagged): of the frames where the hand covers at least
-:data:`FACE_COVERED` of the inner landmarks, and of those without the hand (and of
+landmarks flagged): of the frames where the occluder hides at least
+:data:`FACE_COVERED` of the inner landmarks, and of those without one (and of
 ``single_face.mp4``), the share the rule refuses, for the deployed limit and others.
 """
 
@@ -35,7 +42,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -47,17 +54,26 @@ from aamcore.config import data_root  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
 from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
 from aamcore.io.video import video_frames  # noqa: E402
+from aamcore.synth.motion_files import video_path  # noqa: E402
 from aamcore.tracker import FaceTracker  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from tracking_clips import generated_clips  # noqa: E402
+from tracking_clips import (  # noqa: E402
+    SETS,
+    Clip,
+    ensure_sequence,
+    held_out_photos,
+    motion_spec,
+)
 
-TARGET_COVERED, TARGET_VISIBLE = 0.90, 0.05
+TARGET_COVERED, TARGET_VISIBLE, TARGET_STILL = 0.85, 0.05, 0.02
+KINDS = ("crossing", "hand", "object", "hair", "glasses", "edge")
+"""The occluders' kinds, in turn over the occluded sequences."""
 COVERED, VISIBLE = 0.5, 0.0
 """A landmark is covered at or above this share of its part of the face, visible at none."""
 INNER = slice(17, 68)
 FACE_COVERED = 0.2
-"""A frame's face is covered when the hand covers at least this share of its inner landmarks."""
+"""A frame's face is covered when the occluder hides at least this share of its inner landmarks."""
 LIMITS = (0.1, 0.15, 0.2, 0.3)
 GROUPS = {"jaw": range(0, 17), "brows": range(17, 27), "nose": range(27, 36),
           "eyes": range(36, 48), "mouth": range(48, 68)}
@@ -95,7 +111,7 @@ def share(part: int, whole: int) -> str:
 
 
 def score(tracker: FaceTracker, frames: list[np.ndarray], covered: np.ndarray,
-          with_hand: bool) -> Tally:
+          occluded: bool) -> Tally:
     """Track ``frames`` from a fresh start and count the flags against ``covered`` (F, N)."""
     tracker.reset()
     tracker.frames = 0
@@ -114,7 +130,7 @@ def score(tracker: FaceTracker, frames: list[np.ndarray], covered: np.ndarray,
         if not hand or inner_covered >= FACE_COVERED:
             t.frames.append((float(np.mean(flags[INNER])), hand))
         t.partly += int((~cov & ~vis).sum())
-        if not with_hand:
+        if not occluded:
             t.clean += len(flags)
             t.clean_flagged += int(flags.sum())
             continue
@@ -130,6 +146,24 @@ def score(tracker: FaceTracker, frames: list[np.ndarray], covered: np.ndarray,
     return t
 
 
+def occluder_clips(model: FittingModel, per_set: int, frames: int, regenerate: bool
+                   ) -> list[tuple[Clip, str]]:
+    """The sequences of every set (``per_set`` each) with their occluder's kind ("" for
+    none): every second one occluded, the kinds of :data:`KINDS` in turn."""
+    clips, turn = [], 0
+    for set_name in SETS:
+        for k, sample in enumerate(held_out_photos(model, set_name, per_set)):
+            spec, kind = motion_spec(set_name, k, frames), ""
+            if spec.occluder is not None:
+                kind = KINDS[turn % len(KINDS)]
+                turn += 1
+                spec = replace(spec, occluder_kind=kind)
+            folder, truth = ensure_sequence(set_name, sample, spec, regenerate)
+            name = f"{set_name} {Path(sample.image_path).stem}{f' +{kind}' if kind else ''}"
+            clips.append((Clip(set_name, name, video_path(folder), truth), kind))
+    return clips
+
+
 def row(name: str, t: Tally) -> str:
     return (f"{name:<26}{t.covered:>8}{share(t.covered_flagged, t.covered):>9}"
             f"{t.visible:>8}{share(t.visible_flagged, t.visible):>9}{t.clean:>8}"
@@ -140,7 +174,7 @@ def row(name: str, t: Tally) -> str:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--model", type=Path, help="fitting model (default: the default one)")
-    parser.add_argument("--per-set", type=int, default=4, help="sequences per set")
+    parser.add_argument("--per-set", type=int, default=6, help="sequences per set")
     parser.add_argument("--frames", type=int, default=150, help="frames per sequence")
     parser.add_argument("--regenerate", action="store_true", help="remake the sequences")
     args = parser.parse_args(argv)
@@ -155,26 +189,28 @@ def main(argv: list[str] | None = None) -> int:
           f" of covered landmarks flagged, {report.get('training_visible_flagged', 0):.1%} of "
           f"visible ones")
     print(f"\n{'sequence':<26}{'covered':>8}{'flagged':>9}{'visible':>8}{'flagged':>9}"
-          f"{'clean':>8}{'flagged':>9}{'partly':>7}{'hand':>6}{'no fit':>8}")
-    total, by_set = Tally(), {}
+          f"{'clean':>8}{'flagged':>9}{'partly':>7}{'occl.':>6}{'no fit':>8}")
+    total, by_set, by_kind = Tally(), {}, {}
     with threadpool_limits(1):
-        for clip in generated_clips(model, args.per_set, args.frames, args.regenerate):
+        for clip, kind in occluder_clips(model, args.per_set, args.frames, args.regenerate):
             assert clip.truth is not None
-            with_hand = clip.truth.spec is not None and clip.truth.spec.occluder is not None
-            t = score(tracker, video_frames(clip.video), clip.truth.covered, with_hand)
+            t = score(tracker, video_frames(clip.video), clip.truth.covered, bool(kind))
             print(row(clip.name, t))
             by_set.setdefault(clip.set_name, Tally()).add(t)
+            by_kind.setdefault(kind or "none", Tally()).add(t)
             total.add(t)
         print()
-        for name, t in by_set.items():
+        for name, t in [*by_set.items(), *by_kind.items()]:
             print(row(f"{name} (all)", t))
         print(row("all", total))
         video = video_frames(data_root() / "videos" / "single_face.mp4")
         real = score(tracker, video, np.zeros((len(video), 68)), False)
     print("\ncovered landmarks flagged by part: " + ", ".join(
         f"{g} {share(f, n).strip()} of {n}" for g, (n, f) in total.groups.items()))
-    print(f"single_face.mp4 (nothing covers the face): {share(real.clean_flagged, real.clean)}"
-          f" of the landmarks of {real.clean // 68} good fits flagged")
+    still = real.clean_flagged / max(real.clean, 1)
+    print(f"{'PASS' if still <= TARGET_STILL else 'FAIL'}: single_face.mp4 (nothing covers the "
+          f"face): {still:.1%} of the landmarks of {real.clean // 68} good fits flagged "
+          f"(target <= {TARGET_STILL:.0%})")
     covered = total.covered_flagged / max(total.covered, 1)
     visible = total.visible_flagged / max(total.visible, 1)
     print(f"\n{'PASS' if covered >= TARGET_COVERED else 'FAIL'}: {covered:.1%} of the covered "
@@ -186,8 +222,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"occluded frames without a good fit (no flags): {total.occluded_without_fit} of "
           f"{total.occluded_frames}")
     print(f"\nexpression gate 'face covered' (share of inner landmarks flagged > limit), frames "
-          f"refused: | limit | covered faces (hand over >= {FACE_COVERED:.0%} of the inner "
-          "landmarks) | faces without the hand | single_face.mp4 |")
+          f"refused: | limit | covered faces (occluder over >= {FACE_COVERED:.0%} of the inner "
+          "landmarks) | faces without an occluder | single_face.mp4 |")
     shares = np.array([f for f, _ in total.frames])
     covered_face = np.array([c for _, c in total.frames], bool)
     clean_video = np.array([f for f, _ in real.frames])
@@ -195,7 +231,8 @@ def main(argv: list[str] | None = None) -> int:
         cells = [f"{share(int((v > limit).sum()), len(v)).strip()} of {len(v)}"
                  for v in (shares[covered_face], shares[~covered_face], clean_video)]
         print(f"| {limit:g} | " + " | ".join(cells) + " |")
-    return 0 if covered >= TARGET_COVERED and visible <= TARGET_VISIBLE else 1
+    passed = covered >= TARGET_COVERED and visible <= TARGET_VISIBLE and still <= TARGET_STILL
+    return 0 if passed else 1
 
 
 if __name__ == "__main__":

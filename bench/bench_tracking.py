@@ -259,9 +259,9 @@ def split_model_path() -> Path:
     """
     from aamcore.fitting.training import prepare
     from aamcore.model.cache import cache_key, cached_file
-    from aamcore.model.training import TrainConfig, train_aam
+    from aamcore.model.training import train_aam
 
-    config = TrainConfig(colour=False, shape_variance=0.98)  # as default_model_path
+    config = prepare.AAM_CONFIG  # as default_model_path
     folder = resolve_dataset(defaults.MODEL_DATASET)
     images = defaults.MODEL_UPDATE_IMAGES
     key = cache_key(str(folder), config, {"select": "split train",

@@ -13,6 +13,7 @@ from pathlib import Path
 from aamcore.config import cache_dir, resolve_dataset
 from aamcore.evaluation.fits import held_out
 from aamcore.fitting.model import FittingModel
+from aamcore.fitting.training import occluders
 from aamcore.io import FaceSample, load_annotated_folder
 from aamcore.io.splits import split
 from aamcore.synth import deform, motion, motion_files
@@ -56,7 +57,8 @@ class Clip:
 
 def generator_version(nonrigid: bool = False) -> str:
     """A digest of the generator's code: cached sequences are remade when it changes."""
-    text = inspect.getsource(motion) + inspect.getsource(motion_files)
+    text = (inspect.getsource(motion) + inspect.getsource(motion_files)
+            + inspect.getsource(occluders))
     if nonrigid:
         text += inspect.getsource(deform)
     return hashlib.sha1(text.encode()).hexdigest()[:8]

@@ -195,6 +195,9 @@ class GlassesRenderer:
         ]
         self._plain_fbo = ctx.framebuffer(self._plain_targets[0], self._plain_targets[1])
         self._out = np.empty((self.height, self.width, 3), dtype=np.uint8)
+        lo, hi = self.glasses.mesh.vertices.min(axis=0), self.glasses.mesh.vertices.max(axis=0)
+        self._corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                                  for z in (lo[2], hi[2])], np.float64)
 
     def render(
         self, frame: np.ndarray, R: np.ndarray, T: np.ndarray, K: np.ndarray
@@ -218,11 +221,21 @@ class GlassesRenderer:
             A new BGR image.
         """
         frame = self._check_frame(frame)
+        out = frame.copy()
+        box = self._glasses_box(R, T, K)
+        if box is None:  # the glasses lie outside the frame: nothing to draw
+            return out
+        x0, y0, x1, y1 = box
+        viewport = (x0, y0, x1 - x0, y1 - y0)
         self._set_camera(R, T, K)
-        self._frame_texture.write(frame, alignment=1)
+        # only the glasses' box is uploaded, drawn and read back (frame row y is GL row y):
+        # the rest of the frame is the frame itself
+        self._frame_texture.write(np.ascontiguousarray(frame[y0:y1, x0:x1]), viewport=viewport,
+                                  alignment=1)
         fbo = self._draw_fbo
         fbo.use()
-        fbo.clear(depth=1.0)
+        fbo.scissor = viewport
+        fbo.clear(depth=1.0, viewport=viewport)
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
         self._frame_texture.use(0)
         self._background["frame"].value = 0
@@ -236,11 +249,32 @@ class GlassesRenderer:
         self._draw_parts(LENS_PARTS, LENS_COLOUR, LENS_ALPHA, shading=1.0)
         _set_masks(fbo, colour=True, depth=True)
         self.ctx.disable(moderngl.BLEND)
+        fbo.scissor = None
         if self._resolved is not None:
             self.ctx.copy_framebuffer(self._resolved, fbo)
             fbo = self._resolved
-        fbo.read_into(self._out, components=3, alignment=1)
-        return self._out.copy()
+        read = self._out.reshape(-1)[:(y1 - y0) * (x1 - x0) * 3]
+        fbo.read_into(read, viewport=viewport, components=3, alignment=1)
+        out[y0:y1, x0:x1] = read.reshape(y1 - y0, x1 - x0, 3)
+        return out
+
+    def _glasses_box(self, R: np.ndarray, T: np.ndarray, K: np.ndarray
+                     ) -> tuple[int, int, int, int] | None:
+        """The pixels ``(x0, y0, x1, y1)`` the glasses may cover (their 3D box projected, a
+        pixel or two around it, within the frame; all of it where a corner lies behind the
+        camera), None when none lies in the frame."""
+        cam = self._corners @ np.asarray(R, np.float64).T + np.asarray(T, np.float64)
+        if np.any(cam[:, 2] <= self.near):
+            return 0, 0, self.width, self.height
+        uv = cam @ np.asarray(K, np.float64).T
+        uv = uv[:, :2] / uv[:, 2:]
+        x0, y0 = np.floor(uv.min(axis=0)).astype(int) - 2
+        x1, y1 = np.ceil(uv.max(axis=0)).astype(int) + 3
+        x0, y0 = max(int(x0), 0), max(int(y0), 0)
+        x1, y1 = min(int(x1), self.width), min(int(y1), self.height)
+        if x1 <= x0 or y1 <= y0:
+            return None
+        return x0, y0, x1, y1
 
     def coverage(
         self,

@@ -81,15 +81,18 @@ class Fitter:
         self.regressor = regressor
         sample = regressor and (config.appearance or config.refine > 0
                                 or self.failure_test in APPEARANCE_TESTS)
-        self.sampler = AppearanceSampler(self.aam, warp) if sample else None
+        judged_here = (config.judges_occlusion and model.occlusion is not None
+                       and (sample or not regressor))
+        test = OcclusionTest(model.occlusion, self.aam) if judged_here else None
+        self.sampler = AppearanceSampler(self.aam, test, warp) if sample else None
+        # flags where the algorithm leaves an appearance of its own: the sampler's pass
+        self.occlusion = (self.sampler or AppearanceSampler(self.aam, test, warp)) if test else None
+        self._grey = getattr(self.algorithm, "grey_region", lambda image: None)
         self.refiner = None
         self.refine = config.refine
         if regressor and config.refine > 0:
             self.refiner = make_algorithm(config.refine_with, model,
                                           AlgorithmSettings(warp, config.refine))
-        judged_here = (config.judges_occlusion and model.occlusion is not None
-                       and (sample or not regressor))
-        self.occlusion = OcclusionTest(model.occlusion, self.aam) if judged_here else None
         self.zero = np.zeros(self.aam.n_appearance)
 
     @classmethod
@@ -142,8 +145,9 @@ class Fitter:
         if isinstance(fit, AAMFit) and fit.ok:
             if self.failure_test in APPEARANCE_TESTS:
                 fit = judged(fit, self.failure(fit.c, fit.points))
-            if fit.ok and self.occlusion is not None:
-                fit = replace(fit, occluded=self.occlusion(fit))
+            if fit.ok and self.occlusion is not None and fit.occluded is None:
+                found = self.occlusion.project_frame(image, fit.points)
+                fit = replace(fit, occluded=found.occluded)
         return replace(fit, confidence=self._confidence(fit))
 
     def _confidence(self, fit: FitResult) -> float:
@@ -167,9 +171,10 @@ class Fitter:
         the AAM where asked, and then the refined fit, scored and judged at its own
         landmarks, where it passes."""
         assert self.sampler is not None
-        found = self.sampler.project_frame(image, fit.points)
+        found = self.sampler.project_frame(image, fit.points, self._grey(image))
         sampled = AAMFit.of_landmarks(fit, found.c, found.residual, found.error,
-                                      errors=[found.error], texture=found.texture)
+                                      errors=[found.error], texture=found.texture,
+                                      occluded=found.occluded)
         if self.refiner is None or not np.all(np.isfinite(found.c)):
             return sampled
         prepared = self.aam.prepare_image(image, fit.points)  # the AAM may leave the box

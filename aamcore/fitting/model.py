@@ -62,10 +62,10 @@ class FittingModel:
             if update.R.shape != expected:
                 raise ValueError(f"update matrix of level {level} has shape {update.R.shape}, "
                                  f"the AAM needs {expected}")
-        triangles = len(self.aam.frame.triangles)
-        if self.occlusion is not None and self.occlusion.n_triangles != triangles:
-            raise ValueError(f"occlusion statistics of {self.occlusion.n_triangles} triangles, "
-                             f"the AAM's reference frame has {triangles}")
+        points = self.aam.scheme.n_points
+        if self.occlusion is not None and self.occlusion.n_points != points:
+            raise ValueError(f"occlusion statistics of {self.occlusion.n_points} landmarks, "
+                             f"the AAM has {points}")
 
     @property
     def update_method(self) -> str:

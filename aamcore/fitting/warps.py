@@ -112,6 +112,12 @@ class FitterWarp:
         self._used.add(path)  # type: ignore[arg-type]
         return texture
 
+    def record(self, path: str, seconds: float) -> None:
+        """Count a warp done elsewhere on ``path`` (the appearance's box, on the CPU)."""
+        self.counts[path] += 1  # type: ignore[index]
+        self.seconds[path] += seconds  # type: ignore[index]
+        self._used.add(path)  # type: ignore[arg-type]
+
     def set_frame(self, image: np.ndarray) -> None:
         """Upload the frame the next warps sample, on the GPU path (nothing on the CPU)."""
         if self._path == "gpu":

@@ -3,11 +3,16 @@
 The photo is moved over a 640 x 360 canvas by a smooth random similarity
 (translation, in-plane rotation up to +-30 deg, scale 0.7 to 1.4 of its
 starting size), with brightness changes, motion blur while it moves fast, and
-optionally an occluder: a skin-coloured, hand-sized shape that crosses the
-face for a stretch of frames. Landmarks follow by the same transform, so
-every frame has its ground truth; frames covered by the occluder are
-flagged, and per landmark the share of its part of the face the occluder
-covers (a disc of :data:`PART_RADIUS` of the face's width around it).
+optionally an occluder for a stretch of frames: by default a skin-coloured,
+hand-sized shape that crosses the face (``crossing``); or one of the kinds of
+:mod:`aamcore.fitting.training.occluders` (a hand, an object, hair,
+sunglasses) resting on the face and moving with it; or the frame's edge
+(``edge``: the face slides partly out of the frame). Landmarks follow by the
+same transform, so every frame has its ground truth; frames covered by the
+occluder are flagged, and per landmark the share of its part of the face the
+occluder covers (a disc of :data:`PART_RADIUS` of the face's width around it;
+for the kinds other than ``crossing`` the part outside the frame counts as
+hidden).
 """
 
 from __future__ import annotations
@@ -17,6 +22,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from aamcore.fitting.training.occluders import DRAWN, draw_occluder
+from aamcore.fitting.training.occluders import covered_shares as hidden_shares
 from aamcore.model.similarity import Similarity
 from aamcore.synth.deform import reshape, smooth_noise
 
@@ -48,6 +55,9 @@ class MotionSpec:
         Motion blur along the motion, as long as the frame's displacement.
     occluder : (int, int) or None
         First and last frame (inclusive) of the occluder's crossing.
+    occluder_kind : str
+        ``crossing`` (the hand crossing the face), one of
+        :data:`aamcore.fitting.training.occluders.DRAWN` or ``edge``.
     noise : float
         Standard deviation of per-frame sensor noise, grey levels.
     seed : int
@@ -62,6 +72,7 @@ class MotionSpec:
     occluder: tuple[int, int] | None = None
     noise: float = 0.0
     seed: int = 0
+    occluder_kind: str = "crossing"
 
 
 @dataclass(frozen=True)
@@ -100,12 +111,31 @@ def trajectory(spec: MotionSpec, points: np.ndarray) -> list[Similarity]:
     margin = np.array([SIZE[0], SIZE[1]]) / 2 - FACE_WIDTH * 0.8
     shift = np.stack([margin[0] * smooth_noise(rng, n, spec.speed),
                       margin[1] * smooth_noise(rng, n, spec.speed)], axis=1)
+    if spec.occluder is not None and spec.occluder_kind == "edge":
+        shift = _to_the_edge(spec, shift, FACE_WIDTH * scale, rng)
     out = []
     for k in range(n):
         s = Similarity.from_scale_angle(base * scale[k], angle[k])
         target = np.array(SIZE) / 2 + shift[k]
         moved = s.apply(centre[None])[0]
         out.append(Similarity(s.a, s.b, target[0] - moved[0], target[1] - moved[1]))
+    return out
+
+
+def _to_the_edge(spec: MotionSpec, shift: np.ndarray, widths: np.ndarray,
+                 rng: np.random.Generator) -> np.ndarray:
+    """``shift`` (F, 2) taking the face, over the occluder's span, toward an edge of the frame
+    until a quarter to a half of its width (``widths`` (F,) pixels) lies beyond it."""
+    first, last = spec.occluder  # type: ignore[misc]
+    side = int(rng.integers(4))
+    axis, sign = side // 2, 1.0 if side % 2 else -1.0
+    half = np.array(SIZE, np.float64)[axis] / 2
+    beyond = rng.uniform(0.25, 0.5)
+    out = shift.copy()
+    for k in range(first, last + 1):
+        ramp = min((k - first) / 4.0, (last - k) / 4.0, 1.0)
+        target = sign * (half + (beyond - 0.5) * widths[k])
+        out[k, axis] = shift[k, axis] + ramp * (target - shift[k, axis])
     return out
 
 
@@ -174,11 +204,20 @@ def generate(photo: np.ndarray, points: np.ndarray, spec: MotionSpec = MotionSpe
         raise ValueError(f"shapes {shapes.shape} for {spec.frames} frames of {points.shape}")
     rng = np.random.default_rng(spec.seed + 1)
     sims = trajectory(spec, points)
+    kind = spec.occluder_kind if spec.occluder is not None else "crossing"
+    if kind not in ("crossing", "edge", *DRAWN):
+        raise ValueError(f"unknown occluder kind {kind!r}")
+    covering = None
+    if kind in DRAWN:  # drawn on the photo once: it rests on the face and moves with it
+        covering = draw_occluder(photo, points, np.random.default_rng(spec.seed + 2), kind,
+                                 cv2.flip(photo, -1))
     light = spec.brightness * smooth_noise(rng, spec.frames, 1.5)
     frames, truths, occluded, covered = [], [], [], []
     background = cv2.resize(cv2.GaussianBlur(photo, (0, 0), 25), SIZE)
     for k, sim in enumerate(sims):
-        frame = cv2.warpAffine(photo, sim.matrix, SIZE, dst=background.copy(),
+        during = spec.occluder is not None and spec.occluder[0] <= k <= spec.occluder[1]
+        shown = covering[0] if covering is not None and during else photo
+        frame = cv2.warpAffine(shown, sim.matrix, SIZE, dst=background.copy(),
                                borderMode=cv2.BORDER_TRANSPARENT)
         truth = sim.apply(points)
         if shapes is not None:
@@ -191,9 +230,17 @@ def generate(photo: np.ndarray, points: np.ndarray, spec: MotionSpec = MotionSpe
         frame = np.clip(frame.astype(np.float32) + shade, 0, 255).astype(np.uint8)
         box = np.r_[truth.min(axis=0), truth.max(axis=0)]
         mask = np.zeros(frame.shape[:2], np.uint8)
-        over = spec.occluder is not None and _occluder(frame, k, spec.occluder, box, mask)
+        if kind == "crossing":
+            over = spec.occluder is not None and _occluder(frame, k, spec.occluder, box, mask)
+            shares = covered_shares(mask, truth) if over else np.zeros(len(truth))
+        else:
+            if covering is not None and during:
+                mask = cv2.warpAffine(covering[1].astype(np.uint8), sim.matrix, SIZE,
+                                      flags=cv2.INTER_NEAREST)
+            shares = hidden_shares(mask, truth) if during else np.zeros(len(truth))
+            over = bool(shares.max() > 0)
         frames.append(frame)
         truths.append(truth)
         occluded.append(over)
-        covered.append(covered_shares(mask, truth) if over else np.zeros(len(truth)))
+        covered.append(shares)
     return Sequence(frames, np.stack(truths), np.array(occluded), np.stack(covered))

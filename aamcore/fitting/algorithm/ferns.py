@@ -137,6 +137,23 @@ class FernRunner:
         y = p[1].clip(0.0, limit[1]).astype(np.intp)
         return pixels.take(x + y * width).reshape(2, -1)
 
+    def values_of(self, pixels: np.ndarray, width: int, limit: tuple[float, float],
+                  shapes: np.ndarray, rots: np.ndarray) -> np.ndarray:
+        """:meth:`values` of several shapes (S, N, 2) at once, ``rots`` (S, 2, 2): (S, 2,
+        T depth) uint8."""
+        count = len(shapes)
+        p = (rots @ self.offsets).reshape((count, *self.shape4))
+        p += (shapes.transpose(0, 2, 1) + 0.5)[:, :, None, :, None]
+        x = p[:, 0].clip(0.0, limit[0]).astype(np.intp)
+        y = p[:, 1].clip(0.0, limit[1]).astype(np.intp)
+        return pixels.take(x + y * width).reshape(count, 2, -1)
+
+    def outputs(self, values: np.ndarray) -> np.ndarray:
+        """:meth:`output` of several shapes' values (S, 2, T depth): (S, Q) float64."""
+        passed = np.subtract(values[:, 0], values[:, 1], dtype=np.int16) > self.thresholds
+        leaf = passed.reshape(len(values), -1, self.stage.depth) @ self.powers + self.leaf_base
+        return (self.ones @ self.weights.take(leaf, axis=0) + self.bias).astype(np.float64)
+
     def output(self, values: np.ndarray) -> np.ndarray:
         """The stage's output (Q,) float64 from the test pixels of :meth:`values`."""
         passed = np.subtract(values[0], values[1], dtype=np.int16) > self.thresholds

@@ -50,6 +50,11 @@ BINARY = BinaryTrainConfig()
 """The local-binary recipe of the models trained here."""
 OCCLUSION = OcclusionTrainConfig()
 """The occlusion test's recipe of the models trained here."""
+AAM_CONFIG = TrainConfig(colour=False, shape_variance=0.98, n_pixels=2_500)
+"""The AAM's recipe: grey textures over about 2,500 reference pixels (a frame about 58 x 60,
+for a face about as wide as an eye's part of the face is 9 pixels: what the appearance ``c``,
+its residual and the occlusion test read; 10,000 pixels cost four times the warp and the
+products for the same flags and expression rows)."""
 PHASES = (("appearance model", 3.0), ("face detection", 15.0), ("update matrices, level 0", 3.0),
           ("update matrices, level 1", 3.0), ("descent stages", 22.0),
           ("coarse HOG stages", 29.0), ("fern stages", 61.0), ("restart stages", 38.0),
@@ -193,7 +198,7 @@ def build_fitting_model(
     with a progress bar per long phase."""
     start = time.perf_counter()
     data = training_set(dataset, limit)
-    config = config or TrainConfig(colour=False, shape_variance=0.98)
+    config = config or AAM_CONFIG
     few = subset(data.samples, aam_images)
     note(f"training a fitting model on {len(data.samples)} faces of {data.name} (the "
          f"appearance model on {len(few)})")
@@ -224,7 +229,7 @@ def default_model_path(
         ``afw`` give their training split only (:mod:`aamcore.io.splits`).
         The 68-point iBUG markup is what the head-pose model expects.
     config : TrainConfig, optional
-        The AAM's; grey textures over about 10k reference pixels by default.
+        The AAM's (:data:`AAM_CONFIG` by default).
     max_images : int
         Images used to learn the update matrices.
     limit : int, optional
@@ -236,7 +241,7 @@ def default_model_path(
     update_method : {"jacobian", "regression"}
         How the update matrices are learned (Algorithm 6 or 5).
     """
-    config = config or TrainConfig(colour=False, shape_variance=0.98)
+    config = config or AAM_CONFIG
     data = training_set(dataset, limit)
     chosen = f"first {limit}" if limit else "all"
     extra = {"select": chosen, "split": data.split, "aam_images": aam_images,
