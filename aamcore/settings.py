@@ -186,8 +186,9 @@ class Settings:
                 kind, optional = _kind(hints[f.name])
                 value = getattr(self, f.name)
                 if isinstance(value, int) and not isinstance(value, bool) and kind is float:
-                    object.__setattr__(self, f.name, float(value))
-                elif problem := _problem(spec, kind, optional, value):
+                    value = float(value)  # an int given for a float: kept as one, then checked
+                    object.__setattr__(self, f.name, value)
+                if problem := _problem(spec, kind, optional, value):
                     raise ConfigError(f.name, value, problem)
             elif "group" in f.metadata and not isinstance(getattr(self, f.name),
                                                           type(f.default)):

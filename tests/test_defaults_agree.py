@@ -46,3 +46,11 @@ def test_the_expression_service_and_the_library_classify_alike_but_for_the_hold(
         ExpressionRecogniser, "smooth")
     assert opts.hold == STACK_HOLD == TRACKER.expression_hold > 0  # the library's and the stack's
     assert PoseOptions().smooth == TRACKER.smoothing  # as smoothing
+
+
+def test_one_limit_for_faces_from_the_tracker_to_the_wire() -> None:
+    from proto import messages
+
+    # proto may not import aamcore: the two constants are one limit, held equal here
+    assert defaults.MAX_FACES == messages.MAX_FACES
+    assert TRACKER.setting("max_faces").spec.high == defaults.MAX_FACES

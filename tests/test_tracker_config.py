@@ -75,6 +75,7 @@ def test_every_value_reaches_every_door(s: Setting, tmp_path: Path) -> None:
 BAD = [
     ({"max_faces": 65}, "--max-faces 65", "must be a whole number from 1 to 64"),
     ({"refit_every": -1}, "--refit-every -1", "must be a whole number from 0"),
+    ({"refit_moving": -1}, "--refit-moving -1", "must be a number from 0"),  # int for float
     ({"appearance": False, "occlusion": True}, "--no-appearance --occlusion",
      "needs the appearance"),
 ]
