@@ -312,7 +312,7 @@ class LocalBinary:
         count = len(shapes)
         for runner in self._ferns:
             begun = time.perf_counter()
-            a, b = (shapes.reshape(count, -1) @ self._sim).T
+            a, b = self.space.similarity(shapes).T
             rots = np.empty((count, 2, 2))
             rots[:, 0, 0] = rots[:, 1, 1] = a
             rots[:, 0, 1], rots[:, 1, 0] = -b, b

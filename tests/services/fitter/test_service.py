@@ -176,7 +176,7 @@ def test_a_query_about_a_turned_copy_of_the_frame_carries_that_copy(
     with Service("fitter", bus_pair[0], handle_signals=False) as svc:
         detector = ServiceDetector(svc, timeout=0.3, local_for=60.0)
         detector.set_frame(image, b"the frame's own bytes")
-        assert detector._payload_for(image) == b"the frame's own bytes"
+        assert detector._query_for(image)[0] == b"the frame's own bytes"
         view, _ = rotated_view(image, 0.5)
-        sent = decode(detector._payload_for(view), "frame")
+        sent = decode(detector._query_for(view)[0], "frame")
     assert np.array_equal(sent.image, view)
