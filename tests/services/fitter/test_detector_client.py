@@ -15,7 +15,7 @@ import numpy as np
 
 from aamcore.config import REPO_ROOT
 from aamcore.detection.haar import HaarFaceDetector
-from proto import FaceBoxes, decode, encode
+from proto import FaceBoxes, decode
 from proto.keys import detect_key
 from services.bus.connection import BusOptions
 from services.bus.options import options_argv
@@ -63,9 +63,9 @@ def test_a_reply_with_bad_settings_keeps_its_boxes_and_the_settings_had(
 
     def answer(query: Any) -> None:
         frame = decode(query.payload.to_bytes(), "frame")
-        boxes = FaceBoxes(frame.header, frame.width, frame.height,
+        boxes = FaceBoxes(fake.header_for(frame), frame.width, frame.height,
                           np.array([[1, 2, 30, 40]], np.float32), np.ones(1, np.float32))
-        query.reply(query.key_expr, encode(boxes), attachment=attachments.pop(0))
+        query.reply(query.key_expr, fake.encode(boxes), attachment=attachments.pop(0))
 
     with Service("detector", bus_pair[1], handle_signals=False) as fake, \
             Service("fitter", bus_pair[0], handle_signals=False) as svc:
