@@ -184,10 +184,12 @@ def main(argv: list[str] | None = None) -> int:
         sys.exit(f"{path}: this model has no occlusion part: retrain it")
     tracker = FaceTracker(model=model, classifier=False, smoothing=False)
     report = model.occlusion.report
+    seen, unseen = report.get("training", {}), report.get("threshold_views", {})
     print(f"model {Path(path).name}: occlusion test trained on {report.get('faces')} faces, "
-          f"{report.get('views')} views; on them {report.get('training_covered_flagged', 0):.1%}"
-          f" of covered landmarks flagged, {report.get('training_visible_flagged', 0):.1%} of "
-          f"visible ones")
+          f"{report.get('views')} views; covered landmarks flagged / visible ones flagged: "
+          f"{seen.get('covered_flagged', 0):.1%} / {seen.get('visible_flagged', 0):.1%} on "
+          f"its training views, {unseen.get('covered_flagged', 0):.1%} / "
+          f"{unseen.get('visible_flagged', 0):.1%} on the faces kept apart for the threshold")
     print(f"\n{'sequence':<26}{'covered':>8}{'flagged':>9}{'visible':>8}{'flagged':>9}"
           f"{'clean':>8}{'flagged':>9}{'partly':>7}{'occl.':>6}{'no fit':>8}")
     total, by_set, by_kind = Tally(), {}, {}
