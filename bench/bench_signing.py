@@ -117,9 +117,11 @@ def stack_fps(checkout: Path, video: Path, folder: Path) -> float:
     """Fits per second between the first and the last fit of one run from ``checkout``."""
     rec = folder / "run.rec"
     env = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(checkout)}
-    subprocess.run([sys.executable, "-m", "services", "run", "--video", str(video), "--pace",
-                    "fast", "--loop", "6", "--no-ar", "--record", str(rec)], env=env,
-                   cwd=checkout, capture_output=True, timeout=900, check=True)
+    done = subprocess.run([sys.executable, "-m", "services", "run", "--video", str(video),
+                           "--pace", "fast", "--loop", "6", "--no-ar", "--record", str(rec)],
+                          env=env, cwd=checkout, capture_output=True, text=True, timeout=900)
+    if done.returncode:  # a loaded machine drops work by design (exit 1): its pace still counts
+        print(f"  ({checkout.name} exit {done.returncode}: {done.stderr.strip().splitlines()[-1]})")
     return (len(times := fit_times(rec)) - 1) / ((times[-1] - times[0]) / 1e9)
 
 
