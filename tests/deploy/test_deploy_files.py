@@ -6,14 +6,18 @@ from __future__ import annotations
 import configparser
 import json
 import re
+import shutil
 from pathlib import Path
 
 import pytest
 import zenoh
 
+from proto.auth import Keyring
 from proto.zenoh_config import config_from_file
 from services.bus.args import parse_service_args, service_argv
 from services.bus.options import OptionError
+from services.bus.trust import write_keys_file
+from services.stack.launcher import NAME
 from services.stack.registry import SERVICES
 from services.stack.stack_file import StackFile, read_stack_file
 from tests.deploy.conftest import DEPLOY, ZENOH_DIR
@@ -74,8 +78,13 @@ def test_config_from_file_overrides_mode_and_endpoints() -> None:
 
 
 @pytest.fixture(scope="module")
-def stack_file() -> StackFile:
-    return read_stack_file(DEPLOY / "stack.toml")
+def stack_file(tmp_path_factory: pytest.TempPathFactory) -> StackFile:
+    """deploy/stack.toml, its keys file (made at deployment, never committed) made beside a copy."""
+    folder = tmp_path_factory.mktemp("deploy")
+    shutil.copy(DEPLOY / "stack.toml", folder / "stack.toml")
+    parsed = read_stack_file(folder / "stack.toml")
+    write_keys_file(parsed.keys, Keyring.generate([*SERVICES, NAME]))
+    return parsed
 
 
 def test_stack_file_places_every_service_on_exactly_one_host(stack_file: StackFile) -> None:
