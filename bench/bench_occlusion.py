@@ -13,7 +13,7 @@ turn from :data:`KINDS`: the skin-coloured hand crossing the face, a hand
 resting on it (skin tones from light to dark), an object (flat, shaded or
 patterned), a lock of hair, sunglasses, the frame's edge (the face slides a
 quarter to a half out of the frame) (:mod:`aamcore.synth.motion`,
-:mod:`aamcore.fitting.training.occluders`). The ground truth of each frame
+:mod:`aamcore.fitting.occluders`). The ground truth of each frame
 says, per landmark, the share of its part of the face (a disc of 0.08 face
 widths around it) that the occluder hides (beyond the frame's edge counts as
 hidden, but for the crossing hand).

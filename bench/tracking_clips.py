@@ -12,8 +12,8 @@ from pathlib import Path
 
 from aamcore.config import cache_dir, resolve_dataset
 from aamcore.evaluation.fits import held_out
+from aamcore.fitting import occluders
 from aamcore.fitting.model import FittingModel
-from aamcore.fitting.training import occluders
 from aamcore.io import FaceSample, load_annotated_folder
 from aamcore.io.splits import split
 from aamcore.synth import deform, motion, motion_files

@@ -90,7 +90,7 @@ PENDING: set[tuple[str, str]] = set()
 
 FITTING_LAYERS = (
     ("result", "shape_space", "pyramid", "residuals", "features", "search", "upright",
-     "warps"),
+     "warps", "occluders"),
     ("algorithm.ferns", "algorithm.local_hog", "learned", "update_matrix", "occlusion",
      "appearance"),
     ("model",),

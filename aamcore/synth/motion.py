@@ -5,7 +5,7 @@ The photo is moved over a 640 x 360 canvas by a smooth random similarity
 starting size), with brightness changes, motion blur while it moves fast, and
 optionally an occluder for a stretch of frames: by default a skin-coloured,
 hand-sized shape that crosses the face (``crossing``); or one of the kinds of
-:mod:`aamcore.fitting.training.occluders` (a hand, an object, hair,
+:mod:`aamcore.fitting.occluders` (a hand, an object, hair,
 sunglasses) resting on the face and moving with it; or the frame's edge
 (``edge``: the face slides partly out of the frame). Landmarks follow by the
 same transform, so every frame has its ground truth; frames covered by the
@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from aamcore.fitting.training.occluders import DRAWN, draw_occluder
-from aamcore.fitting.training.occluders import covered_shares as hidden_shares
+from aamcore.fitting.occluders import DRAWN, draw_occluder
+from aamcore.fitting.occluders import covered_shares as hidden_shares
 from aamcore.model.similarity import Similarity
 from aamcore.synth.deform import reshape, smooth_noise
 
@@ -57,7 +57,7 @@ class MotionSpec:
         First and last frame (inclusive) of the occluder's crossing.
     occluder_kind : str
         ``crossing`` (the hand crossing the face), one of
-        :data:`aamcore.fitting.training.occluders.DRAWN` or ``edge``.
+        :data:`aamcore.fitting.occluders.DRAWN` or ``edge``.
     noise : float
         Standard deviation of per-frame sensor noise, grey levels.
     seed : int

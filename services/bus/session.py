@@ -178,7 +178,7 @@ class Service(Receiving, Presence):
                     alive_key(self.stream, self.name))
         if self._state == "starting":
             self.set_state("running", message or None)
-            self._publish_status()  # now, not a period later: peers may wait for it
+        self._publish_status()  # now, not a period later: peers may wait for it
 
 
     @property

@@ -205,8 +205,8 @@ def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
     fits = svc.messages("fit", capacity=opts.capacity)
     if classifier is None:
         svc.log.error("%s; running without expressions", why)
+        svc.set_state("degraded", why)  # before ready(): its first status says so
         svc.ready()
-        svc.set_state("degraded", why)
     else:
         svc.ready(f"{classifier.kind}, classes {','.join(classifier.class_names)}")
     for got in fits:

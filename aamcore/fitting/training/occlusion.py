@@ -2,7 +2,7 @@
 
 Each training face is seen as it is and with :attr:`OcclusionTrainConfig.occluded`
 occluders over it, their kinds taken in turn from
-:data:`~aamcore.fitting.training.occluders.KINDS` (a hand, an object, hair,
+:data:`~aamcore.fitting.occluders.KINDS` (a hand, an object, hair,
 sunglasses, the frame's edge cutting the face). The landmarks are found as the
 stack finds them (the local-binary method from a start on the face's box, when
 the model has one; else the annotated landmarks, jittered), the face projected
@@ -27,6 +27,7 @@ import cv2
 import numpy as np
 
 from aamcore.fitting.appearance import AppearanceSampler
+from aamcore.fitting.occluders import KINDS, covered_shares, draw_occluder, edge_crop
 from aamcore.fitting.occlusion import (
     OcclusionModel,
     inputs,
@@ -34,7 +35,6 @@ from aamcore.fitting.occlusion import (
     neighbours,
     probabilities,
 )
-from aamcore.fitting.training.occluders import KINDS, covered_shares, draw_occluder, edge_crop
 from aamcore.io import FaceSample
 from aamcore.model.aam import AAM
 

@@ -9,6 +9,12 @@ import numpy as np
 import pytest
 
 from aamcore.fitting.appearance import AppearanceSampler
+from aamcore.fitting.occluders import (
+    DRAWN,
+    covered_shares,
+    draw_occluder,
+    edge_crop,
+)
 from aamcore.fitting.occlusion import (
     N_FEATURES,
     Discs,
@@ -18,12 +24,6 @@ from aamcore.fitting.occlusion import (
     feature_names,
     logits,
     neighbours,
-)
-from aamcore.fitting.training.occluders import (
-    DRAWN,
-    covered_shares,
-    draw_occluder,
-    edge_crop,
 )
 from aamcore.fitting.training.occlusion import OcclusionTrainConfig, train_occlusion
 

@@ -91,14 +91,16 @@ def test_single_face_gpu_warp_every_frame_gets_its_results(
     classifier_path: Path,
 ) -> None:
     rrd, rec = tmp_path / "run.rrd", tmp_path / "run.rec"
-    opts = stack_options(single_face, warp="gpu", record=str(rec), rrd=str(rrd))
+    # the default method samples its appearance on the CPU; one fixed-Jacobian iteration of
+    # refinement per good fit is what warps on the GPU worker
+    opts = stack_options(single_face, warp="gpu", refine=1, record=str(rec), rrd=str(rrd))
     stack, summary = run_stack(opts)
     assert summary["total_frames"] == 72 and summary["eos_reason"] == "end_of_file"
     messages = load_messages(rec)
     fits = by_frame(messages, "fit")
     assert sorted(fits) == list(range(72))
-    # Every good fit has its appearance, warped on the GPU worker; a failed fit of the
-    # default method (a landmark regressor's) has none and warped nothing.
+    # Every good fit has its appearance, refined through the GPU worker; a failed fit of
+    # the default method (a landmark regressor's) has none and warped nothing.
     assert {f.warp_path for f in fits.values() if f.appearance is not None} == {"gpu"}
     assert all(f.appearance is not None for f in fits.values() if not f.failed)
     assert {f.warp_path for f in fits.values() if f.appearance is None} <= {"none"}
