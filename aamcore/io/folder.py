@@ -97,7 +97,8 @@ def load_annotated_folder(folder: str | Path, limit: int | None = None) -> Annot
     """Read every ``.asf`` or ``.pts`` annotation of ``folder`` with its image.
 
     Files that cannot be read, or whose point count differs from the most
-    common one, are skipped and listed in ``errors``.
+    common one, are skipped and listed in ``errors``, as are images without an
+    annotation (when the whole folder is read).
 
     Parameters
     ----------
@@ -135,6 +136,12 @@ def load_annotated_folder(folder: str | Path, limit: int | None = None) -> Annot
 
     if not samples:
         raise DatasetError(f"{root}: no readable annotated image ({len(errors)} files failed)")
+    if limit is None:
+        # an image whose annotation is missing is named, not silently left out
+        used = {s.image_path.name for s in samples} | {p.stem for p in files}
+        errors += [f"{image}: no .pts or .asf annotation beside it" for image in sorted(
+            root.iterdir()) if image.suffix.lower() in IMAGE_SUFFIXES
+            and image.name not in used and image.stem not in used]
     n_points = Counter(len(s.points) for s in samples).most_common(1)[0][0]
     kept = []
     for s in samples:
