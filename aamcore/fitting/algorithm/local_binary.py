@@ -91,6 +91,8 @@ class LocalBinary:
         self._sim = Placement(space.mean).matrix
         self._frame = aam.shape.mean_shape if aam is not None else space.mean
         self._frame_place = Placement(self._frame)
+        left, right = space.eye_corners
+        self._frame_eyes = float(np.linalg.norm(self._frame[left] - self._frame[right]))
         self._mean = space.mean
         self._modes, self._modes_t = space.modes, np.ascontiguousarray(space.modes.T)
         self._mean_proj = space.mean.ravel() @ space.modes
@@ -352,15 +354,18 @@ class LocalBinary:
 
     def _result(self, points: np.ndarray, seconds: list[float], score: float, contrast: int
                 ) -> LandmarkFit:
-        reason = ""
+        reason, similarity = "", Similarity()
         if not np.all(np.isfinite(points)):
             reason = "non-finite shape"
-        elif (eyes := self.eye_distance(points)) < MIN_EYE_DISTANCE:
-            reason = (f"face too small: {eyes:.1f} px between the outer eye corners "
-                      f"(at least {MIN_EYE_DISTANCE:g})")
-        elif contrast < MIN_CONTRAST:
-            reason = f"no contrast around the landmarks ({contrast} grey levels)"
-        similarity = self._similarity(points) if not reason.startswith("non") else Similarity()
+        else:
+            similarity = self._similarity(points)
+            # the eye corners' distance from the placement the result carries: no extra cost
+            eyes = math.hypot(similarity.a, similarity.b) * self._frame_eyes
+            if eyes < MIN_EYE_DISTANCE:
+                reason = (f"face too small: {eyes:.1f} px between the outer eye corners "
+                          f"(at least {MIN_EYE_DISTANCE:g})")
+            elif contrast < MIN_CONTRAST:
+                reason = f"no contrast around the landmarks ({contrast} grey levels)"
         return LandmarkFit(points, similarity, bool(reason), reason,
                            0.0 if reason else math.nan, score, seconds)
 
