@@ -38,7 +38,6 @@ from aamcore.fitting.algorithm.ferns import FernRunner
 from aamcore.fitting.algorithm.local_hog import LandmarkHog
 from aamcore.fitting.learned import BinaryCascade
 from aamcore.fitting.result import LandmarkFit
-from aamcore.io.landmarks import IBUG68_MIRROR, mirror_points
 from aamcore.model.aam import AAM
 from aamcore.model.similarity import Placement, Similarity
 
@@ -104,8 +103,6 @@ class LocalBinary:
         self._ferns = [FernRunner(s) for s in cascade.tracking]
         self._restart = [FernRunner(s) for s in cascade.restart]
         self._quality = FernRunner(cascade.quality)
-        ibug = aam is not None and aam.scheme.name == "ibug68" and space.n_points == 68
-        self._mirror = IBUG68_MIRROR if ibug else None
         self._reach = MARGIN * max(s.radius for s in [*cascade.tracking, *cascade.restart,
                                                       cascade.quality])
 
@@ -153,27 +150,15 @@ class LocalBinary:
     def fit_shape(self, image: np.ndarray, start: np.ndarray) -> LandmarkFit:
         """Fit from a start shape (N, 2) on a detection: coarse stages, then the fern stages
         and, where the cascade has restart stages, the mean of that fit and the restart from
-        it (as :meth:`track_points` does from the previous frame's); for the iBUG-68 markup,
-        the mean of that and the same fit of the left-right flipped image."""
+        it (as :meth:`track_points` does from the previous frame's)."""
         start = np.asarray(start, np.float64)
         if not np.all(np.isfinite(start)):
             return self._failed(start, "non-finite start shape")
         seconds: list[float] = []
         points = self._detected(image, start, seconds)
-        if points is None:
+        region = None if points is None else self.region(image, points)
+        if points is None or region is None:
             return self._failed(start, "the face lies outside the frame", seconds)
-        if self._mirror is not None:
-            # the mirror image's fit errs apart from the first (bench_fit_lfpw.py, held out,
-            # with the restart's mean: median NME LFPW 0.0343 -> 0.0332, HELEN 0.0340 ->
-            # 0.0323), for twice the time of a detection's fit; tracking is left as it is
-            width = image.shape[1]
-            flipped = np.ascontiguousarray(image[:, ::-1])
-            other = self._detected(flipped, mirror_points(start, width, self._mirror), seconds)
-            if other is not None:
-                points = 0.5 * (points + mirror_points(other, width, self._mirror))
-        region = self.region(image, points)
-        if region is None:
-            return self._failed(points, "the face lies outside the frame", seconds)
         score, contrast = self._score(region, points - region.origin)
         return self._result(points, seconds, score, contrast)
 

@@ -143,24 +143,3 @@ def test_cascade_checks_and_arrays(synthetic_binary) -> None:
     with pytest.raises(ValueError, match="threshold"):
         BinaryCascade(again.space, again.coarse, again.tracking, again.quality, math.nan)
 
-
-def test_a_detection_fit_of_the_mirror_image_is_the_mirror_of_the_fit(model_path, lfpw_dir
-                                                                      ) -> None:
-    """An iBUG-68 model's detection fit averages the image's and its mirror image's, so that
-    flipping the photo flips the landmarks (and the fit is no worse on either side)."""
-    from aamcore.fitting.model import FittingModel
-    from aamcore.io import load_annotated_folder
-    from aamcore.io.landmarks import IBUG68_MIRROR, mirror_points
-
-    model = FittingModel.load(model_path)
-    method = LocalBinary.from_model(model, AlgorithmSettings())
-    sample = load_annotated_folder(lfpw_dir, limit=1).samples[0]
-    image = sample.load_image()
-    width = image.shape[1]
-    start = moved(sample.points, 1.05, 0.05, (4.0, -3.0))
-    fit = method.fit_shape(image, start)
-    flipped = method.fit_shape(np.ascontiguousarray(image[:, ::-1]),
-                               mirror_points(start, width, IBUG68_MIRROR))
-    assert np.allclose(mirror_points(flipped.points, width, IBUG68_MIRROR), fit.points,
-                       atol=1e-6)
-    assert point_error(fit.points, sample.points) < point_error(start, sample.points)
