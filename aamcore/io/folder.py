@@ -93,11 +93,21 @@ def _read_annotation(path: Path) -> tuple[FaceSample, tuple[np.ndarray, np.ndarr
     return FaceSample(image_path, points, _subject_from_name(path.stem)), topology
 
 
+def _unannotated(root: Path, samples: list[FaceSample], files: list[Path]) -> list[str]:
+    """One message per image of ``root`` that no annotation file names: an image whose
+    annotation is missing is named, not silently left out."""
+    used = {s.image_path.name for s in samples} | {p.stem for p in files}
+    return [f"{image}: no .pts or .asf annotation beside it" for image in sorted(root.iterdir())
+            if image.suffix.lower() in IMAGE_SUFFIXES
+            and image.name not in used and image.stem not in used]
+
+
 def load_annotated_folder(folder: str | Path, limit: int | None = None) -> AnnotatedSet:
     """Read every ``.asf`` or ``.pts`` annotation of ``folder`` with its image.
 
     Files that cannot be read, or whose point count differs from the most
-    common one, are skipped and listed in ``errors``.
+    common one, are skipped and listed in ``errors``, as are images without an
+    annotation (when the whole folder is read).
 
     Parameters
     ----------
@@ -135,6 +145,8 @@ def load_annotated_folder(folder: str | Path, limit: int | None = None) -> Annot
 
     if not samples:
         raise DatasetError(f"{root}: no readable annotated image ({len(errors)} files failed)")
+    if limit is None:
+        errors += _unannotated(root, samples, files)
     n_points = Counter(len(s.points) for s in samples).most_common(1)[0][0]
     kept = []
     for s in samples:

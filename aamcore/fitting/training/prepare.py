@@ -198,6 +198,8 @@ def build_fitting_model(
     with a progress bar per long phase."""
     start = time.perf_counter()
     data = training_set(dataset, limit)
+    for error in data.errors:  # a bad or missing annotation is named, never silently used
+        note(f"skipped: {error}")
     config = config or AAM_CONFIG
     few = subset(data.samples, aam_images)
     note(f"training a fitting model on {len(data.samples)} faces of {data.name} (the "

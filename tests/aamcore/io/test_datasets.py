@@ -65,10 +65,12 @@ def test_bad_files_are_named_and_skipped(tmp_path: Path, lfpw_dir: Path) -> None
     (tmp_path / "fewer.jpg").write_bytes(good[0].image_path.read_bytes())
     _write_pts(tmp_path / "liar.pts", good[0].points, declared=70)
     (tmp_path / "liar.jpg").write_bytes(good[0].image_path.read_bytes())
+    (tmp_path / "unannotated.png").write_bytes(good[0].image_path.read_bytes())
     data = load_annotated_folder(tmp_path)
     assert len(data.samples) == 3
     messages = "\n".join(data.errors)
-    assert len(data.errors) == 4
+    assert len(data.errors) == 5
+    assert "unannotated.png" in messages and "no .pts or .asf" in messages
     assert "truncated.pts" in messages and "closing" in messages
     assert "noimage.pts" in messages and "no image" in messages
     assert "fewer.jpg" in messages and "60 points" in messages

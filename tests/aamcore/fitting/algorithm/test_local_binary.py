@@ -1,11 +1,12 @@
 """aamcore.fitting.algorithm.local_binary on synthetic faces: from a start on the face box it
-comes back, it tracks, it scores, and bad input gives failed fits, never an exception."""
+comes back, it tracks, it scores, and bad input gives failed fits or a clear error."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import replace
 
+import cv2
 import numpy as np
 import pytest
 
@@ -38,7 +39,8 @@ def test_from_the_face_box_it_comes_back(method, synthetic_faces, synthetic_mapp
         result = method.fit_shape(sample.load_image(), start)
         starts.append(point_error(start, sample.points))
         ends.append(point_error(result.points, sample.points))
-        assert type(result) is LandmarkFit and len(result.seconds) == 4
+        # coarse and fern stages (2 + 2), the restart from their fit (1 + 2)
+        assert type(result) is LandmarkFit and len(result.seconds) == 7
         assert math.isfinite(result.score) and math.isnan(result.confidence)
     assert np.mean(ends) < 0.5 * np.mean(starts), (starts, ends)
 
@@ -107,6 +109,13 @@ def test_bad_input_gives_failed_fits(method, synthetic_faces) -> None:
     partly = method.track_points(image[:, :90], sample.points)  # the face cut at x = 90
     assert partly.points.shape == sample.points.shape and np.all(np.isfinite(partly.points))
     assert method.score(image, sample.points + [1000.0, 0.0]) == math.inf
+    with pytest.raises(ValueError, match="no pixels"):
+        method.prepare(image[:0])
+    # a face a few pixels wide: failed with its reason, not a wrong face
+    k = 5.0 / method.eye_distance(sample.points)
+    tiny = cv2.resize(image, None, fx=k, fy=k, interpolation=cv2.INTER_AREA)
+    small = method.fit_shape(tiny, (sample.points + 0.5) * k - 0.5)
+    assert small.failed and "too small" in small.reason and small.confidence == 0.0
     for odd in (image[..., 0], image.astype(np.uint16) * 257,
                 np.dstack([image, np.full(image.shape[:2], 255, np.uint8)])):
         prepared = method.prepare(odd)
@@ -139,3 +148,4 @@ def test_cascade_checks_and_arrays(synthetic_binary) -> None:
         BinaryCascade(again.space, again.coarse, [], again.quality, -2.0)
     with pytest.raises(ValueError, match="threshold"):
         BinaryCascade(again.space, again.coarse, again.tracking, again.quality, math.nan)
+
