@@ -1,27 +1,21 @@
 """Cascaded regression on local binary features, in a shape space: the default tracker.
 
-From a detection (acquisition) the start shape goes through coarse
-landmark-HOG stages (:mod:`~aamcore.fitting.algorithm.local_hog`), then the
-fern stages (:mod:`~aamcore.fitting.algorithm.ferns`), and, where the cascade
-has restart stages, that fit is averaged with the restart from it (as below).
-From the previous frame's landmarks (tracking) it goes through the fern stages
-alone and, where the cascade has restart stages, also afresh as dlib's tracker does: the mean
-shape placed by a similarity on those landmarks, through the restart stages and
-then the fern stages; the mean of the two fits, projected back onto the shape
-model, is the frame's, so a tracked face keeps no error the expression left on
-the last frame, and how far apart the two lay is the fit's ``disagreement`` (a
-cue of failure, ``bench/bench_failure_tests.py``). Every step is taken in the
-basis of :class:`~aamcore.fitting.shape_space.ShapeSpace` and every shape the
-method returns is projected onto the shape model (3 sd), as is each coarse
-stage's. One more fern stage regresses the fit's ``log(NME)`` (its
-quality score); above the model's calibrated threshold the fit has failed.
+From a detection the start shape goes through coarse landmark-HOG stages
+(:mod:`~aamcore.fitting.algorithm.local_hog`) and the fern stages
+(:mod:`~aamcore.fitting.algorithm.ferns`); from the previous frame's landmarks, through the
+fern stages. Where the cascade has restart stages, either fit is averaged with one made
+afresh as dlib's tracker does (the mean shape placed on it, through the restart and fern
+stages) and projected back onto the shape model: a tracked face keeps no error the
+expression left on the last frame, and how far apart the two lay is the fit's
+``disagreement`` (a cue of failure, ``bench/bench_failure_tests.py``). Every step is taken in
+the basis of :class:`~aamcore.fitting.shape_space.ShapeSpace`, and every shape returned is
+projected onto the shape model (3 sd). One more fern stage regresses the fit's ``log(NME)``
+(its quality score); above the model's calibrated threshold the fit has failed.
 
-The method reads the grey pixels of the face's region only (converted once per
-frame) and computes no AAM appearance: it returns a
-:class:`~aamcore.fitting.result.LandmarkFit` with its quality score, and the
-:class:`~aamcore.fitting.fitter.Fitter` applies the threshold (and samples the
-appearance where asked). What it learned is a
-:class:`~aamcore.fitting.learned.BinaryCascade`.
+The method reads the grey pixels of the face's region only and computes no AAM appearance:
+it returns a :class:`~aamcore.fitting.result.LandmarkFit` with its quality score, and the
+:class:`~aamcore.fitting.fitter.Fitter` applies the threshold and samples the appearance.
+What it learned is a :class:`~aamcore.fitting.learned.BinaryCascade`.
 """
 
 from __future__ import annotations
@@ -51,9 +45,8 @@ MIN_CONTRAST = 8
 """Least spread (grey levels) of the pixels the quality stage reads for a fit to count:
 a black, blank or saturated region holds no face."""
 MIN_EYE_DISTANCE = 8.0
-"""Least distance (pixels) between the outer eye corners of a fit that counts: below it
-(a face box under about 13 px) held-out LFPW faces shrunk to size are mostly missed (mean
-NME 0.22 at 4 px, 0.12 at 6 px, 0.08 at 8 px, 0.05 at 16 px, 20 faces, default model)."""
+"""Least distance (pixels) between the outer eye corners of a fit that counts (held-out LFPW
+faces shrunk: mean NME 0.22 at 4 px, 0.12 at 6, 0.08 at 8, 0.05 at 16; 20 faces)."""
 MARGIN = 1.1
 """Region read around the shape, in stage radii (pixel pairs lie within a radius)."""
 
