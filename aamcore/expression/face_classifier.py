@@ -23,7 +23,6 @@ from typing import Any
 
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
-from sklearn.linear_model import LogisticRegression
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from aamcore.expression.shrinkage_lda import shrinkage_lda
@@ -272,6 +271,8 @@ def fit_logistic(
         converges to the same optimum, in fewer iterations).
     max_iter : int
     """
+    from sklearn.linear_model import LogisticRegression  # here: serving never imports it
+
     X = np.asarray(X, np.float64)
     y = np.asarray(y).astype(str)
     scaler = BlockScaler(tuple(block_dims.items()), tuple((weights or {}).items())).fit(X)
