@@ -80,7 +80,7 @@ class Profile:
         Raises
         ------
         aamcore.io.sample.DatasetError
-            When JAFFE is missing or none of its faces can be classified.
+            When an expression set is missing or unreadable, or no face can be classified.
         """
         from aamcore.expression.training import classifier_path
 

@@ -31,18 +31,26 @@ import numpy as np  # noqa: E402
 from threadpoolctl import threadpool_limits  # noqa: E402
 
 from aamcore.config import data_root  # noqa: E402
+from aamcore.evaluation.expression_lopo import (  # noqa: E402
+    jaffe_faces,
+    run_expression_benchmark,
+    thesis_specs,
+)
 from aamcore.evaluation.expression_report import format_benchmark  # noqa: E402
-from aamcore.expression.benchmark import run_expression_benchmark, thesis_specs  # noqa: E402
+from aamcore.evaluation.expression_variants import (  # noqa: E402
+    JAFFE_ONLY,
+    THESIS_CLASSIFIERS,
+    variant_named,
+)
 from aamcore.expression.svm import SVM_GRIDS  # noqa: E402
-from aamcore.expression.training import jaffe_faces  # noqa: E402
-from aamcore.expression.variants import DEPLOYED, THESIS_CLASSIFIERS, variant_named  # noqa: E402
 from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
 from aamcore.profiles import profile_named  # noqa: E402
 from aamcore.tracker import FaceTracker  # noqa: E402
 
 
 def expression_rows(model: Path, svm: bool, grid: str) -> None:
-    """Section 1: the thesis rows on the thesis fits, the deployed row on the default's."""
+    """Section 1: the thesis rows on the thesis fits, the JAFFE-only row on the default's (the
+    deployed classifier's JAFFE row: ``bench_expression.py``)."""
     thesis = profile_named("thesis")
     names = THESIS_CLASSIFIERS if svm else THESIS_CLASSIFIERS[:1]
     variants = [variant_named(f"c, absolute, {name} (thesis)") for name in names]
@@ -54,7 +62,7 @@ def expression_rows(model: Path, svm: bool, grid: str) -> None:
           f"faces fitted and classified in {time.perf_counter() - started:.0f} s")
     print(format_benchmark(bench))
     started = time.perf_counter()
-    default = run_expression_benchmark(model, None, [DEPLOYED], (7, 5), specs)
+    default = run_expression_benchmark(model, None, [JAFFE_ONLY], (7, 5), specs)
     print(f"\ndefault profile (local-binary): {time.perf_counter() - started:.0f} s")
     print(format_benchmark(default))
 

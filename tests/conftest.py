@@ -17,6 +17,9 @@ MODEL_LIMIT = 300
 HELEN and AFW (cached after the first run, about 30 s). With 120 faces its tracking
 drifted on ``single_face.mp4`` (jaw off the head model from frame 45 on)."""
 MODEL_IMAGES = 10
+CLASSIFIER_LIMIT = 10
+"""Faces of each class of the Taiwanese and LFW sets the tests' classifier learns from
+(with all of JAFFE): 344 faces, the whole recipe in a few seconds."""
 
 
 @pytest.fixture(scope="session")
@@ -80,10 +83,12 @@ def model_path() -> Path:
 
 @pytest.fixture(scope="session")
 def classifier_path(model_path: Path) -> Path:
-    """The expression classifier for :func:`model_path` (trained on JAFFE on first use)."""
+    """The expression classifier for :func:`model_path`, learned from JAFFE and
+    :data:`CLASSIFIER_LIMIT` faces of each class of the other two sets (trained on first
+    use)."""
     from aamcore.expression.training import classifier_path as cached
 
-    return cached(model_path)
+    return cached(model_path, limit=CLASSIFIER_LIMIT)
 
 
 @pytest.fixture(scope="session")
@@ -94,6 +99,17 @@ def jaffe_dir(data_dir: Path) -> Path:
 @pytest.fixture(scope="session")
 def jaffe_set(jaffe_dir: Path) -> JaffeSet:
     return load_jaffe(jaffe_dir)
+
+
+@pytest.fixture(scope="session")
+def jaffe(model_path: Path, jaffe_dir: Path):
+    """Every JAFFE face (213) fitted by the small test model as the stack fits a frame
+    (``LabelledFaces``, images kept)."""
+    from aamcore.expression.faces import fit_faces
+    from aamcore.io.expression_sets import load_expression_set
+
+    return fit_faces(FittingModel.load(model_path), load_expression_set("jaffe", jaffe_dir),
+                     keep_images=True)
 
 
 @pytest.fixture(scope="session")

@@ -23,7 +23,7 @@ from aamcore.expression.crop import (
     canonical_shape,
     check_landmarks,
 )
-from aamcore.expression.hog_patches import hog_block, mirror_symmetry
+from aamcore.expression.hog_patches import hog_block, hog_pair, patch_symmetry
 from aamcore.expression.quality import landmark_problem, symmetry_problem
 from aamcore.expression.spec import FeatureConfig, QualityLimits
 
@@ -94,10 +94,11 @@ def _hog(image: np.ndarray, points: np.ndarray, config: FeatureConfig,
     crop, crop_points = aligned_face(image, points, config.crop_size, config.eye_distance,
                                      config.eye_row)
     equalised = cv2.equalizeHist(crop)
-    hog = hog_block(equalised if config.equalise else crop, crop_points, config)
     if limits is None:
-        return "", hog
-    symmetry = mirror_symmetry(equalised, crop_points, config, hog if config.equalise else None)
+        return "", hog_block(equalised if config.equalise else crop, crop_points, config)
+    own, mirrored = hog_pair(equalised, crop_points, config)
+    hog = own if config.equalise else hog_block(crop, crop_points, config)
+    symmetry = patch_symmetry(own, mirrored, len(config.hog_points))
     return symmetry_problem(symmetry, limits), hog
 
 

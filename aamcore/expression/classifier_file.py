@@ -3,10 +3,11 @@
 A classifier file is one ``.npz`` archive. Its ``header`` entry holds UTF-8
 JSON bytes::
 
-    {"format": "aamtrack-expression-classifier", "format_version": 3,
+    {"format": "aamtrack-expression-classifier", "format_version": 4,
      "kind": "linear", "class_names": ["NE", ...], "feature_dim": 1972,
      "aam_fingerprint": "...", "info": {...}, "pipeline": {...},
-     "temperature": 1.7, "absolute_temperature": 2.1, "has_absolute": true}
+     "temperature": 0.8, "absolute_temperature": 0.8, "has_absolute": true,
+     "absolute_weight": 0.25, "fused_temperature": 1.0}
 
 and every other entry is a plain numeric array of the pure numpy predictor
 (:class:`~aamcore.expression.face_classifier.LinearModel`,
@@ -16,9 +17,10 @@ and every other entry is a plain numeric array of the pure numpy predictor
 A relative pipeline's file also holds a person-independent
 :class:`~aamcore.expression.face_classifier.LinearModel` of the absolute
 vectors (entries ``absolute_*``), which decides until the stream has a
-neutral reference and says which frames are neutral enough to enter it.
-``temperature`` turns each model's scores into probabilities
-(:mod:`~aamcore.expression.calibration`), fitted on held-out posers.
+reference; once it has, the two models' log-probabilities are fused, the
+absolute one weighted by ``absolute_weight`` (:func:`~aamcore.expression.learning.fuse`).
+Each ``temperature`` turns scores into probabilities
+(:mod:`~aamcore.expression.calibration`), fitted on held-out people.
 
 ``pipeline`` is the :class:`~aamcore.expression.spec.PipelineSpec`: which
 features are classified, relative to which reference, behind which quality
@@ -26,7 +28,8 @@ gate. ``aam_fingerprint`` names the fitting model whose fits the classifier
 was trained on: landmarks and appearance vectors of another model have
 another meaning, and :meth:`ExpressionClassifier.check_aam` refuses them.
 Refused at load, each with what to do: another format version (format 1
-classified raw appearance vectors and had no pipeline), features of another
+classified raw appearance vectors and had no pipeline, 2 had no probabilities, 3
+no fusion), features of another
 :data:`~aamcore.expression.spec.FEATURE_VERSION`, a pipeline whose vectors
 do not fit the model.
 """
@@ -34,7 +37,7 @@ do not fit the model.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -44,12 +47,13 @@ from aamcore.expression.calibration import softmax
 from aamcore.expression.crop import N_LANDMARKS
 from aamcore.expression.face_classifier import FittedFaceClassifier, LinearModel
 from aamcore.expression.lda import FisherMahalanobis, MahalanobisModel
+from aamcore.expression.learning import Learned, fuse
 from aamcore.expression.spec import FEATURE_VERSION, PipelineSpec
 from aamcore.expression.svm import SVMExpressionClassifier, SVMModel
 from aamcore.io.versioned import checked_header, save_npz
 
 FORMAT_NAME = "aamtrack-expression-classifier"
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 KINDS = ("linear", "lda_mahalanobis", "svm_ova", "svm_ovo", "svm_dag")
 _HEADER = "header"
 _TEMPLATE = "pipeline_template"
@@ -91,6 +95,10 @@ class ExpressionClassifier:
         The person-independent model of absolute vectors (relative pipelines).
     absolute_temperature : float
         Of :meth:`absolute_probabilities`.
+    absolute_weight : float
+        Weight of the absolute model's log-probabilities in :meth:`fused_probabilities`.
+    fused_temperature : float
+        Of the fused scores' softmax.
     """
 
     kind: str
@@ -102,6 +110,8 @@ class ExpressionClassifier:
     temperature: float = 1.0
     absolute: LinearModel | None = None
     absolute_temperature: float = 1.0
+    absolute_weight: float = 0.0
+    fused_temperature: float = 1.0
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -123,8 +133,11 @@ class ExpressionClassifier:
                                           or self.absolute.n_classes != len(self.class_names)):
             raise ValueError("the absolute model does not match the classifier's vectors or "
                              "classes")
-        if not (self.temperature > 0 and self.absolute_temperature > 0):
+        if not (self.temperature > 0 and self.absolute_temperature > 0
+                and self.fused_temperature > 0):
             raise ValueError("temperatures must be > 0")
+        if not self.absolute_weight >= 0:
+            raise ValueError(f"absolute_weight must be >= 0, got {self.absolute_weight}")
 
     @property
     def feature_dim(self) -> int:
@@ -153,6 +166,23 @@ class ExpressionClassifier:
             model = absolute.model
         return cls(fitted.kind, fitted.classes, aam_fingerprint, fitted.model, pipeline, notes,
                    temperature, model, absolute_temperature)
+
+    @classmethod
+    def from_learned(cls, learned: Learned, pipeline: PipelineSpec, aam_fingerprint: str,
+                     info: dict[str, Any] | None = None) -> ExpressionClassifier:
+        """The models of :func:`~aamcore.expression.learning.learn`: the relative one with the
+        absolute one beside it, or the absolute one alone (then ``pipeline`` is absolute)."""
+        absolute, notes = learned.absolute, {"classifier_params": learned.absolute.params}
+        if learned.relative is None:
+            if pipeline.relative:
+                raise ValueError("a relative pipeline needs the relative model")
+            return cls(absolute.kind, absolute.classes, aam_fingerprint, absolute.model,
+                       pipeline, notes | dict(info or {}), learned.absolute_temperature)
+        made = cls.from_face_classifier(learned.relative, pipeline, aam_fingerprint, info,
+                                        learned.temperature, absolute,
+                                        learned.absolute_temperature)
+        return replace(made, absolute_weight=learned.absolute_weight,
+                       fused_temperature=learned.fused_temperature)
 
     @classmethod
     def from_estimator(
@@ -207,6 +237,21 @@ class ExpressionClassifier:
             raise ValueError(f"expected vectors of shape (n, {self.feature_dim}), got {X.shape}")
         return softmax(self.absolute.scores(X), self.absolute_temperature)
 
+    def fused_probabilities(self, relative: np.ndarray, absolute: np.ndarray) -> np.ndarray:
+        """The relative model's probabilities of ``relative`` (n, k) fused with the absolute
+        model's of ``absolute`` (n, k) (the same faces' vectors), (n, n_classes).
+
+        Raises
+        ------
+        ValueError
+            When the classifier has no person-independent model.
+        """
+        if self.absolute is None:
+            raise ValueError("this classifier has no person-independent model")
+        return fuse(self.scores(relative), self.absolute.scores(np.asarray(absolute, np.float64)),
+                    self.temperature, self.absolute_temperature, self.absolute_weight,
+                    self.fused_temperature)
+
     def check_fit(self, scheme: str, n_landmarks: int, appearance_dim: int) -> None:
         """Refuse fits of another landmark scheme than the pipeline's, or of another appearance
         length when the pipeline classifies the appearance.
@@ -257,6 +302,8 @@ class ExpressionClassifier:
             "temperature": self.temperature,
             "absolute_temperature": self.absolute_temperature,
             "has_absolute": self.absolute is not None,
+            "absolute_weight": self.absolute_weight,
+            "fused_temperature": self.fused_temperature,
         }
 
     def save(self, path: str | Path) -> Path:
@@ -311,7 +358,9 @@ class ExpressionClassifier:
             classifier = cls(kind, names, header["aam_fingerprint"], model, pipeline,
                              header["info"], float(header["temperature"]),
                              LinearModel.from_arrays(absolute) if absolute else None,
-                             float(header["absolute_temperature"]))
+                             float(header["absolute_temperature"]),
+                             float(header["absolute_weight"]),
+                             float(header["fused_temperature"]))
         except (KeyError, ValueError, TypeError, IndexError) as exc:
             raise ClassifierFileError(f"{path}: inconsistent classifier arrays ({exc})") from exc
         if classifier.feature_dim != header["feature_dim"]:
@@ -326,10 +375,12 @@ def _read_header(path: Path, raw: np.ndarray | None) -> dict[str, Any]:
     """Decode and check the JSON header of a classifier file."""
     header = checked_header(path, raw, FORMAT_NAME, FORMAT_VERSION, "classifier",
                             "retrain it (aamtrack model prepare trains the stack's; format 1 "
-                            "classified raw appearance vectors, format 2 had no probabilities)",
+                            "classified raw appearance vectors, format 2 had no probabilities, "
+                            "format 3 learned from JAFFE alone)",
                             ClassifierFileError)
     needed = {"kind", "class_names", "feature_dim", "aam_fingerprint", "info", "pipeline",
-              "temperature", "absolute_temperature", "has_absolute"}
+              "temperature", "absolute_temperature", "has_absolute", "absolute_weight",
+              "fused_temperature"}
     missing = needed - set(header)
     if missing:
         raise ClassifierFileError(f"{path}: header lacks {', '.join(sorted(missing))}")

@@ -9,9 +9,10 @@ kernel's distance.
 
 :func:`fit_face_classifier` trains one of :data:`CLASSIFIERS` behind the
 block scaler and returns a pure numpy predictor: :class:`LinearModel` for
-shrinkage LDA (the deployed classifier, solved by :mod:`.shrinkage_lda`),
-:class:`~aamcore.expression.svm.SVMModel` for the RBF SVM; both are saved without pickle by
-:class:`~aamcore.expression.classifier_file.ExpressionClassifier`.
+multinomial logistic regression (the deployed models, scikit-learn's
+``LogisticRegression`` with class and sample weights) and shrinkage LDA (solved by
+:mod:`.shrinkage_lda`), :class:`~aamcore.expression.svm.SVMModel` for the RBF SVM; all are
+saved without pickle by :class:`~aamcore.expression.classifier_file.ExpressionClassifier`.
 """
 
 from __future__ import annotations
@@ -27,8 +28,10 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from aamcore.expression.shrinkage_lda import shrinkage_lda
 from aamcore.expression.svm import SVMModel, tune_svm
 
-CLASSIFIERS: tuple[str, ...] = ("lda", "rbf_svm")
-"""``lda``: shrinkage LDA (Ledoit-Wolf, no free parameter); ``rbf_svm``: one-against-all
+CLASSIFIERS: tuple[str, ...] = ("logistic", "lda", "rbf_svm")
+"""``logistic``: multinomial logistic regression, classes weighted inversely to their
+frequency (:func:`fit_logistic` sets C and sample weights); ``lda``: shrinkage LDA
+(Ledoit-Wolf, no free parameter); ``rbf_svm``: one-against-all
 RBF SVM on the hypersphere (thesis chapter 10), C and gamma chosen by a cross-validation
 grouped by poser inside the training data."""
 RBF_C = np.array([1.0, 8.0, 64.0])
@@ -223,6 +226,8 @@ def fit_face_classifier(
     """
     if classifier not in CLASSIFIERS:
         raise ValueError(f"unknown classifier {classifier!r}: choose one of {CLASSIFIERS}")
+    if classifier == "logistic":
+        return fit_logistic(X, y, block_dims, weights)
     X = np.asarray(X, np.float64)
     y = np.asarray(y).astype(str)
     groups = np.asarray(groups).astype(str)
@@ -237,3 +242,55 @@ def fit_face_classifier(
     model = LinearModel(scaler.mean_.copy(), scaler.scale_.copy(), coef, intercept)
     return FittedFaceClassifier(model, tuple(str(c) for c in classes), "linear",
                                 {"classifier": "lda"})
+
+
+def fit_logistic(
+    X: np.ndarray,
+    y: np.ndarray,
+    block_dims: Mapping[str, int],
+    weights: Mapping[str, float] | None = None,
+    C: float = 1.0,
+    sample_weight: np.ndarray | None = None,
+    start: FittedFaceClassifier | None = None,
+    max_iter: int = 300,
+) -> FittedFaceClassifier:
+    """Multinomial logistic regression of block-scaled vectors, classes weighted inversely to
+    their frequency (times ``sample_weight``), as a :class:`LinearModel`.
+
+    Parameters
+    ----------
+    X : (n, d) float array
+    y : (n,) array of str
+    block_dims, weights
+        As :func:`fit_face_classifier`.
+    C : float
+        Inverse L2 penalty of scikit-learn's ``LogisticRegression``.
+    sample_weight : (n,) float array, optional
+    start : FittedFaceClassifier, optional
+        A model of the same classes and blocks whose coefficients start the solver (it
+        converges to the same optimum, in fewer iterations).
+    max_iter : int
+    """
+    from sklearn.linear_model import LogisticRegression  # here: serving never imports it
+
+    X = np.asarray(X, np.float64)
+    y = np.asarray(y).astype(str)
+    scaler = BlockScaler(tuple(block_dims.items()), tuple((weights or {}).items())).fit(X)
+    warm = (start is not None and isinstance(start.model, LinearModel) and len(start.classes) > 2
+            and start.classes == tuple(np.unique(y)) and start.model.feature_dim == X.shape[1])
+    model = LogisticRegression(C=C, class_weight="balanced", max_iter=max_iter, warm_start=warm)
+    if warm:
+        assert start is not None and isinstance(start.model, LinearModel)
+        # The start's coefficients are of its own scaling: re-expressed in this one's.
+        ratio = scaler.scale_ / start.model.scale
+        model.coef_ = start.model.coef * ratio
+        model.intercept_ = start.model.intercept + (
+            (scaler.mean_ - start.model.mean) / start.model.scale) @ start.model.coef.T
+    model.fit(scaler.transform(X), y, sample_weight=sample_weight)
+    coef, intercept = model.coef_, model.intercept_
+    if len(model.classes_) == 2:  # one row of scores: the second class's, as +/- halves
+        coef = np.vstack([-coef[0], coef[0]]) / 2.0
+        intercept = np.array([-intercept[0], intercept[0]]) / 2.0
+    linear = LinearModel(scaler.mean_.copy(), scaler.scale_.copy(), coef, intercept)
+    return FittedFaceClassifier(linear, tuple(str(c) for c in model.classes_), "linear",
+                                {"classifier": "logistic", "C": float(C)})

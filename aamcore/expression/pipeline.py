@@ -26,9 +26,6 @@ from aamcore.expression.crop import FaceFeatureError, FaceObservation
 from aamcore.expression.quality import LEARNING
 from aamcore.expression.reference import NeutralReference
 
-NEUTRAL = "NE"
-"""The neutral class: the reference is made of the frames the person-independent model
-gives it."""
 LOST_FRAMES_RESET = 60
 """Frames in a row without a classifiable face after which the reference is forgotten (the
 next face may be another person's): two seconds at 30 fps."""
@@ -49,9 +46,9 @@ class ExpressionEstimate:
     reference_count : int
         Vectors in the stream's reference.
     basis : str
-        What decided: ``"relative"`` (the features against the stream's neutral
-        reference), ``"absolute"`` (the person-independent model, while there is no
-        reference) or empty without a label.
+        What decided: ``"relative"`` (the features against the stream's reference, fused
+        with the person-independent model), ``"absolute"`` (the person-independent model,
+        while there is no reference) or empty without a label.
     """
 
     label: str | None
@@ -86,8 +83,6 @@ class ExpressionPipeline:
         self.reference: NeutralReference = self.spec.new_reference()
         self.lost_frames_reset = lost_frames_reset
         self._lost = 0
-        names = classifier.class_names
-        self._neutral = names.index(NEUTRAL) if NEUTRAL in names else -1
 
     def reset(self) -> None:
         """Forget the stream's reference (a new stream or another person)."""
@@ -105,11 +100,10 @@ class ExpressionPipeline:
 
         A face the quality gate refuses gets no label, with the reason.
         Otherwise, in a relative pipeline, its feature vector enters the
-        stream's reference when the person-independent model calls it neutral
-        with at least the spec's ``neutral_gate``; once the reference is ready
-        ``vector - reference`` is classified, before that the absolute vector by
-        the person-independent model (without one, the reason is
-        :data:`~aamcore.expression.quality.LEARNING`).
+        stream's reference (a running median); once the reference is ready
+        ``vector - reference`` is classified, fused with the person-independent
+        model's answer, before that the absolute vector by the person-independent
+        model alone (without one, the reason is :data:`~aamcore.expression.quality.LEARNING`).
         """
         spec = self.spec
         try:
@@ -129,16 +123,16 @@ class ExpressionPipeline:
         classifier = self.classifier
         if not spec.relative:
             return self._estimate(classifier.probabilities(vector[None, :])[0], "absolute")
-        absolute = None
-        if classifier.absolute is not None:
-            absolute = classifier.absolute_probabilities(vector[None, :])[0]
-        if absolute is None or self._neutral < 0 or absolute[self._neutral] >= spec.neutral_gate:
-            self.reference.update(vector)
+        self.reference.update(vector)
+        absolute = classifier.absolute is not None
         if self.reference.ready:
-            relative = vector - self.reference.reference()
-            return self._estimate(classifier.probabilities(relative[None, :])[0], "relative")
-        if absolute is not None:
-            return self._estimate(absolute, "absolute")
+            relative = (vector - self.reference.reference())[None, :]
+            p = classifier.fused_probabilities(relative, vector[None, :]) if absolute \
+                else classifier.probabilities(relative)
+            return self._estimate(p[0], "relative")
+        if absolute:
+            return self._estimate(classifier.absolute_probabilities(vector[None, :])[0],
+                                  "absolute")
         return ExpressionEstimate(None, None, f"{LEARNING}: {self.reference.count} of "
                                   f"{self.reference.min_count} samples", self.reference.count)
 

@@ -29,12 +29,9 @@ FEATURE_VERSION = 2
 """Bump when the feature computation changes: classifiers of another version are refused."""
 BLOCK_NAMES: tuple[str, ...] = ("hog", "shape", "appearance")
 STREAM_REFERENCE: dict[str, int] = {"window": 120, "stride": 5, "min_count": 10}
-"""The stream's reference: the last 120 kept vectors, one frame in 5 (20 s at 30 fps);
-classified once it holds 10 (from the 46th classifiable frame, 1.5 s at 30 fps)."""
-NEUTRAL_GATE = 0.5
-"""A frame enters the stream's reference only when the person-independent model calls it
-neutral with at least this probability: a stream that opens crying or laughing does not
-make that expression its reference (0: every frame enters, the pipeline before)."""
+"""The stream's reference: the median of the last 120 kept vectors, one classifiable frame
+in 5 (20 s at 30 fps); used once it holds 10 (from the 46th classifiable frame, 1.5 s at
+30 fps). The relative model learns from each person's median face, what this becomes."""
 
 
 @dataclass(frozen=True)
@@ -173,9 +170,6 @@ class PipelineSpec:
         Landmark scheme of the fitter (``"ibug68"``).
     feature_version : int
         :data:`FEATURE_VERSION` of the code that computed the training features.
-    neutral_gate : float
-        Least probability of neutral, by the person-independent model, of a frame that
-        enters the reference (:data:`NEUTRAL_GATE`); 0 lets every frame in.
     """
 
     features: FeatureConfig
@@ -186,11 +180,8 @@ class PipelineSpec:
     template: np.ndarray | None = None
     scheme: str = SCHEME
     feature_version: int = FEATURE_VERSION
-    neutral_gate: float = NEUTRAL_GATE
 
     def __post_init__(self) -> None:
-        if not 0.0 <= self.neutral_gate < 1.0:
-            raise ValueError(f"neutral_gate must be in [0, 1), got {self.neutral_gate}")
         if self.template is not None and np.shape(self.template) != (N_LANDMARKS, 2):
             raise ValueError(f"template must be ({N_LANDMARKS}, 2), got {np.shape(self.template)}")
         if self.appearance_dim < 0:
@@ -222,7 +213,6 @@ class PipelineSpec:
             "quality": asdict(self.quality),
             "features": self.features.to_json(),
             "has_template": self.template is not None,
-            "neutral_gate": self.neutral_gate,
         }
 
     @classmethod
@@ -240,5 +230,4 @@ class PipelineSpec:
             template=None if template is None else np.asarray(template, np.float64),
             scheme=str(data["scheme"]),
             feature_version=int(data["feature_version"]),
-            neutral_gate=float(data["neutral_gate"]),
         )

@@ -22,6 +22,7 @@ IDENTITIES = ("router", "stack", "viewer", "rogue")
 """Certificates signed by the test CA; the common name of each is ``aamtrack-<name>``."""
 MODEL_LIMIT = 300
 MODEL_IMAGES = 10
+CLASSIFIER_LIMIT = 10
 ROUTER_START_TIMEOUT = 20.0
 
 
@@ -187,4 +188,5 @@ def models() -> dict[str, list[str]]:
 
     path = default_model_path(max_images=MODEL_IMAGES, limit=MODEL_LIMIT)
     return {"fitter": ["--model", str(path)],
-            "expression": ["--model", str(path), "--classifier", str(classifier_path(path))]}
+            "expression": ["--model", str(path), "--classifier",
+                           str(classifier_path(path, limit=CLASSIFIER_LIMIT))]}

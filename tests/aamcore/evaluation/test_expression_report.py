@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from aamcore.evaluation.expression_report import format_confusion, save_confusion_png
-from aamcore.expression.evaluation import NOT_CLASSIFIED, EvaluationResult
+from aamcore.evaluation.expression_results import NOT_CLASSIFIED, EvaluationResult
 from aamcore.expression.labels import FIVE_CLASSES
 
 

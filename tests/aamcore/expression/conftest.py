@@ -3,27 +3,19 @@ feature matrices of them."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from aamcore.expression.analysis import observe
+from aamcore.expression.faces import LabelledFaces
 from aamcore.expression.spec import FeatureConfig
-from aamcore.expression.training import JaffeFaces, jaffe_faces
 from tests.aamcore.expression.feature_sets import FeatureSet
 
 FIVE_POSERS = ["KA", "KL", "KM", "KR", "MK"]
 
 
 @pytest.fixture(scope="session")
-def jaffe(model_path: Path, jaffe_dir: Path) -> JaffeFaces:
-    """Every JAFFE face (213) fitted by the small test model as the stack fits a frame."""
-    return jaffe_faces(model_path, jaffe_dir)
-
-
-@pytest.fixture(scope="session")
-def jaffe_features(jaffe: JaffeFaces) -> FeatureSet:
+def jaffe_features(jaffe: LabelledFaces) -> FeatureSet:
     """Absolute HOG patch features (213, 1836) of every JAFFE face, with labels and posers."""
     observed = observe(jaffe.observations, FeatureConfig(blocks=("hog",)))
     assert observed.ok.all(), [p for p in observed.problems if p]

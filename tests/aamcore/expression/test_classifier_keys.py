@@ -10,13 +10,14 @@ import pytest
 
 from aamcore.expression import AAMMismatchError, ExpressionClassifier, training
 from aamcore.expression.training import TRAINING_VERSION, check_made_for, model_fingerprint
+from tests.conftest import CLASSIFIER_LIMIT
 
 
 def test_the_cache_names_model_algorithm_and_features(model_path: Path,
                                                      classifier_path: Path) -> None:
     fingerprint = model_fingerprint(model_path)
-    assert classifier_path.name == (
-        f"expression-{fingerprint}-local-binary-deployed-v{TRAINING_VERSION}.npz")
+    assert classifier_path.name == (f"expression-{fingerprint}-local-binary-deployed-limit"
+                                    f"{CLASSIFIER_LIMIT}-v{TRAINING_VERSION}.npz")
     thesis = classifier_path_of(model_path)
     assert thesis.name == f"expression-{fingerprint}-fixed-jacobian-thesis-v{TRAINING_VERSION}.npz"
     made = ExpressionClassifier.load(thesis)

@@ -8,8 +8,8 @@ from scipy.stats import binomtest
 from sklearn.decomposition import PCA
 from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
 
-from aamcore.expression.evaluation import lda_mahalanobis_spec
 from aamcore.expression.lda import FisherMahalanobis, MahalanobisModel, pooled_covariance
+from aamcore.expression.thesis_classifiers import lda_mahalanobis_spec
 from tests.aamcore.expression.feature_sets import FeatureSet
 
 Features = tuple[np.ndarray, np.ndarray]

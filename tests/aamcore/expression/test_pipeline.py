@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -73,31 +75,23 @@ def test_an_appearance_vector_of_another_length_gives_no_expression() -> None:
 
 
 def test_a_stream_that_opens_on_an_expression_is_read_from_its_first_frame() -> None:
-    """The person-independent model labels frames until a reference exists; frames it does
-    not call neutral never enter the reference."""
-    classifier = stream_classifier(min_count=3, absolute=True)
+    """The person-independent model labels frames until the reference (the running median of
+    every classifiable frame) is ready; then its answer is fused with the relative model's,
+    so a stream that opens laughing is not read as neutral once its reference is the laugh."""
+    classifier = replace(stream_classifier(min_count=3, absolute=True), absolute_weight=1.0)
     pipeline = ExpressionPipeline(classifier)
     person = 0.05
-    opening = [pipeline.process(expression_observation("HA", person)) for _ in range(6)]
+    opening = [pipeline.process(expression_observation("HA", person)) for _ in range(2)]
     assert all(e.ok and e.basis == "absolute" and e.label == "HA" for e in opening)
-    assert pipeline.reference.count == 0  # a laugh is not the face's reference
     for e in opening:
         assert e.scores is not None and np.isclose(e.scores.sum(), 1.0)
-    neutral = [pipeline.process(expression_observation("NE", person)) for _ in range(3)]
-    assert pipeline.reference.count == 3 and neutral[-1].basis == "relative"
+    later = [pipeline.process(expression_observation("HA", person)) for _ in range(4)]
+    assert pipeline.reference.count == 6 and all(e.basis == "relative" for e in later)
+    assert [e.label for e in later] == ["HA"] * 4
+    relative_alone = ExpressionPipeline(replace(classifier, absolute_weight=0.0))
+    for _ in range(6):
+        last = relative_alone.process(expression_observation("HA", person))
+    assert last.label == "NE"  # a laugh as the reference reads as neutral without the fusion
+    for kind in ("NE", "SU", "NE", "SU", "NE"):
+        pipeline.process(expression_observation(kind, person))
     assert pipeline.process(expression_observation("SU", person)).label == "SU"
-
-
-def test_a_gate_of_zero_lets_every_frame_into_the_reference() -> None:
-    classifier = stream_classifier(min_count=3, absolute=True)
-    spec = classifier.pipeline
-    open_gate = PipelineSpec(spec.features, spec.appearance_dim, spec.relative,
-                             spec.reference, spec.quality, spec.template, neutral_gate=0.0)
-    pipeline = ExpressionPipeline(ExpressionClassifier(
-        classifier.kind, classifier.class_names, "model", classifier.model, open_gate,
-        absolute=classifier.absolute))
-    for _ in range(3):
-        pipeline.process(expression_observation("HA", 0.05))
-    assert pipeline.reference.count == 3
-    with pytest.raises(ValueError, match="neutral_gate"):
-        PipelineSpec(spec.features, 3, neutral_gate=1.0)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from aamcore.expression import AAMMismatchError, ExpressionClassifier
+from aamcore.expression.faces import LabelledFaces
 from aamcore.expression.recogniser import ExpressionRecogniser, LabelHold, Smoother
-from aamcore.expression.training import JaffeFaces
 from tests.aamcore.expression.synthetic_faces import expression_observation, stream_classifier
 
 
@@ -67,10 +67,11 @@ def test_no_face_and_fits_of_another_model() -> None:
 
 
 def test_a_stream_of_one_jaffe_posers_faces_is_recognised(
-    classifier_path: Path, jaffe: JaffeFaces
+    classifier_path: Path, jaffe: LabelledFaces
 ) -> None:
     """Every frame is labelled from the first (the person-independent model decides until the
-    stream's reference is made of frames it calls neutral), with probabilities."""
+    stream's reference is ready, then the relative model fused with it), with
+    probabilities."""
     classifier = ExpressionClassifier.load(classifier_path)
     assert classifier.absolute is not None and classifier.temperature > 0
     recogniser = ExpressionRecogniser(classifier)
@@ -100,7 +101,7 @@ def test_a_held_label_changes_only_after_the_new_one_leads_for_a_few_frames() ->
 
 
 def test_the_recogniser_holds_labels_and_a_frame_without_one_forgets_the_label() -> None:
-    recogniser = ExpressionRecogniser(stream_classifier(min_count=1, absolute=True), hold=2)
+    recogniser = ExpressionRecogniser(stream_classifier(min_count=5, absolute=True), hold=2)
     first = _recognise(recogniser, 0, "HA")
     assert first.label == "HA" and first.basis == "absolute"
     flicker = _recognise(recogniser, 1, "SU")

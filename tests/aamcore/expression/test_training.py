@@ -1,5 +1,5 @@
-"""aamcore.expression.training: JAFFE fitted as the stack fits it, the deployed classifier,
-trained and cached per fitting model."""
+"""aamcore.expression.training: the deployed classifier learned from the training people of the
+three expression sets as the stack fits them, cached per fitting model; the thesis's on JAFFE."""
 
 from __future__ import annotations
 
@@ -10,27 +10,25 @@ import pytest
 
 from aamcore.expression import ExpressionClassifier
 from aamcore.expression import training as models
+from aamcore.expression.faces import LabelledFaces
 from aamcore.expression.labels import SEVEN_CLASSES
 from aamcore.expression.spec import STREAM_REFERENCE
-from aamcore.expression.training import JaffeFaces, shape_template, stack_observations
-from aamcore.expression.variants import DEPLOYED
 from aamcore.fitting.model import FittingModel
+from aamcore.io.expression_sets import load_expression_set
+from tests.conftest import CLASSIFIER_LIMIT
 
 
-def test_every_jaffe_face_is_observed_as_the_stack_fits_it(jaffe: JaffeFaces) -> None:
-    assert len(jaffe.observations) == len(jaffe.labels) == len(jaffe.posers) == 213
-    assert not jaffe.no_face.any()  # Haar finds every JAFFE face
-    obs = jaffe.observations[0]
-    assert obs.landmarks.shape == (68, 2) and obs.image.shape == (256, 256)
-    np.testing.assert_array_equal(obs.landmarks, obs.landmarks.astype(np.float32))
-    assert set(jaffe.labels) == set(SEVEN_CLASSES) and len(set(jaffe.posers)) == 10
-    assert jaffe.names[0].endswith(".tiff")
-
-
-def test_an_image_without_a_face_is_observed_as_no_face(model_path: Path) -> None:
-    (obs,) = stack_observations(FittingModel.load(model_path), [np.full((240, 320), 90,
-                                                                        np.uint8)])
-    assert obs.landmarks.shape == (0, 2) and obs.fit_failed and obs.fit_reason == "no face"
+def test_the_training_faces_are_the_training_people_only(data_dir: Path) -> None:
+    taiwan = load_expression_set("taiwan_expressions", data_dir / "taiwan_expressions")
+    chosen = models.training_selection(taiwan)
+    assert not (chosen & taiwan.held_out()).any() and (chosen | taiwan.held_out()).all()
+    few = models.training_selection(taiwan, limit=3)
+    labels = taiwan.labels()
+    assert not (few & taiwan.held_out()).any()
+    assert {name: int(np.sum(few & (labels == name))) for name in SEVEN_CLASSES} == dict.fromkeys(
+        SEVEN_CLASSES, 3)
+    jaffe = load_expression_set("jaffe", data_dir / "jaffe")
+    assert models.training_selection(jaffe, limit=3).all()  # JAFFE has no held-out people
 
 
 def test_the_cached_classifier_is_the_deployed_pipeline_of_the_model(
@@ -38,39 +36,53 @@ def test_the_cached_classifier_is_the_deployed_pipeline_of_the_model(
 ) -> None:
     classifier = ExpressionClassifier.load(classifier_path)
     spec = classifier.pipeline
-    assert classifier.kind == "linear" and spec.features == DEPLOYED.config()
+    assert classifier.kind == "linear" and spec.features == models.FEATURES
     assert spec.relative and spec.reference == STREAM_REFERENCE and spec.template is not None
+    assert classifier.absolute is not None
+    assert classifier.absolute_weight == models.RECIPE.absolute_weight
     assert spec.appearance_dim == FittingModel.load(model_path).aam.n_appearance
     assert classifier.feature_dim == 51 * 36 + 136
     assert classifier.aam_fingerprint == models.model_fingerprint(model_path)
     assert set(classifier.class_names) == set(SEVEN_CLASSES)
-    assert classifier.info["samples"] >= 200  # of 213: failed fits are trained on too
-    assert classifier.info["training_version"] == models.TRAINING_VERSION
-    assert classifier_path.name.endswith(f"-v{models.TRAINING_VERSION}.npz")
+    info = classifier.info
+    assert info["limit"] == CLASSIFIER_LIMIT and info["training_version"] == models.TRAINING_VERSION
+    # JAFFE whole and at most CLASSIFIER_LIMIT faces of each class of the two other sets,
+    # failed fits learned from too; the relative model from people with several faces.
+    assert 200 < info["samples"] <= 213 + 2 * 7 * CLASSIFIER_LIMIT
+    assert 0 < info["samples_relative"] <= info["samples_absolute"] == info["samples"]
 
 
-def test_train_deployed_learns_the_training_faces(jaffe: JaffeFaces, model_path: Path) -> None:
-    trained = models.train_deployed(jaffe, FittingModel.load(model_path).aam.n_appearance)
-    fitted, spec, n = trained.fitted, trained.spec, trained.n_samples
-    assert n == 213 and spec.feature_dim == 1972
-    np.testing.assert_allclose(spec.template, shape_template(jaffe.observations,
-                                                             np.ones(213, bool)))
-    with pytest.raises(ValueError, match="no usable face"):
-        shape_template(jaffe.observations, np.zeros(213, bool))
-    assert set(fitted.classes) == set(SEVEN_CLASSES)
-    # The person-independent model and both temperatures, fitted on held-out posers: the
-    # scores' softmax is neither a hard vote nor uniform.
-    assert trained.absolute is not None and trained.absolute.classes == fitted.classes
-    for t in (trained.temperature, trained.absolute_temperature):
+def test_train_deployed_learns_both_models_of_the_training_faces(jaffe: LabelledFaces,
+                                                                 model_path: Path) -> None:
+    n_appearance = FittingModel.load(model_path).aam.n_appearance
+    trained = models.train_deployed(jaffe, n_appearance)
+    learned, spec = trained.learned, trained.spec
+    assert trained.n_samples == 213 and spec.feature_dim == 1972 and spec.relative
+    assert learned.relative is not None and learned.relative.classes == learned.absolute.classes
+    assert set(learned.absolute.classes) == set(SEVEN_CLASSES)
+    # Temperatures fitted on held-out posers: the softmax is neither a hard vote nor uniform.
+    for t in (learned.temperature, learned.absolute_temperature, learned.fused_temperature):
         assert 0.01 < t < 100.0
-    held_out = models.train_deployed(jaffe, FittingModel.load(model_path).aam.n_appearance,
-                                     train=jaffe.posers != "KA")
-    assert held_out.n_samples < n
+    held_out = models.train_deployed(jaffe, n_appearance, train=jaffe.posers != "KA")
+    assert held_out.n_samples < trained.n_samples
+    with pytest.raises(ValueError, match="no face passes"):
+        models.train_deployed(jaffe, n_appearance, train=np.zeros(213, bool))
+
+
+def test_a_class_without_faces_is_said_not_a_crash(jaffe: LabelledFaces, model_path: Path
+                                                   ) -> None:
+    said: list[str] = []
+    trained = models.train_deployed(jaffe, FittingModel.load(model_path).aam.n_appearance,
+                                    train=jaffe.labels != "FE", say=said.append)
+    assert "FE" not in trained.learned.absolute.classes
+    assert any("no classifiable face of FE" in line for line in said)
+    classifier = trained.classifier("x")
+    assert len(classifier.class_names) == 6
 
 
 def test_a_cached_classifier_is_reused(model_path: Path, classifier_path: Path) -> None:
     before = classifier_path.stat().st_mtime_ns
-    assert models.classifier_path(model_path) == classifier_path
+    assert models.classifier_path(model_path, limit=CLASSIFIER_LIMIT) == classifier_path
     assert classifier_path.stat().st_mtime_ns == before
 
 

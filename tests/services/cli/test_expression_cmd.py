@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from aamcore.expression.variants import DEPLOYED
+from aamcore.evaluation.expression_variants import JAFFE_ONLY
 from services.cli import build_parser, main
 
 
@@ -21,18 +21,18 @@ def test_eval_expression_json(
         for image in jaffe_dir.glob(f"{poser}.*.tiff"):
             shutil.copy(image, data / image.name)
     out = tmp_path / "out"
-    argv = ["eval", "expression", "--json", "--only", "deployed", "--only", "SVM OvA (thesis)",
+    argv = ["eval", "expression", "--json", "--only", "JAFFE only", "--only", "SVM OvA (thesis)",
             "--classes", "5", "--trials", "2", "--grid", "coarse", "--data", str(data),
             "--fit-model", str(model_path), "--out", str(out)]
     code = main(argv)
     report = json.loads(capsys.readouterr().out)
-    assert code == (0 if report["targets_met"] else 1)
+    assert code == 0  # the targets are the bench's (bench/bench_expression.py)
     assert report["n_faces"] == 67 and report["model"] == model_path.name
     rows = report["rows"]
-    assert set(rows) == {DEPLOYED.name, "c, absolute, SVM OvA (thesis)"}
+    assert set(rows) == {JAFFE_ONLY.name, "c, absolute, SVM OvA (thesis)"}
     five = sum(image.name[3:5] not in ("SA", "AN") for image in data.iterdir())
     assert all(r["5"]["n_samples"] == five for r in rows.values())  # every face of 5 classes
-    assert rows[DEPLOYED.name]["5"]["overall_rate"] > 0.5
+    assert rows[JAFFE_ONLY.name]["5"]["overall_rate"] > 0.5
     assert (out / "results.json").is_file() and len(list(out.glob("*.png"))) == 2
 
 

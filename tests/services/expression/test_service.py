@@ -16,8 +16,8 @@ import pytest
 
 from aamcore.config import REPO_ROOT
 from aamcore.expression import ExpressionClassifier
+from aamcore.expression.faces import stack_observations
 from aamcore.expression.recogniser import STACK_HOLD, ExpressionRecogniser
-from aamcore.expression.training import stack_observations
 from aamcore.fitting.model import FittingModel
 from aamcore.io.jaffe import load_jaffe
 from proto import Fit, FitAppearance, Frame, Header, decode, encode

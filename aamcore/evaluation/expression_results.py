@@ -1,81 +1,22 @@
-"""Leave-one-poser-out results and the thesis's classifiers (thesis 9.2 and 10.2).
+"""Predictions of an expression benchmark row over every face of a class set, and its scores.
 
-With few posers, a fair estimate of recognition on unseen people tests each
-poser with everything fitted on the other posers only
-(:func:`aamcore.expression.benchmark.evaluate_variant` runs the folds). This
-module holds what the folds produce, :class:`EvaluationResult` (over every
-face of the class set: a face the pipeline refused is predicted
-:data:`NOT_CLASSIFIED` and counted wrong), and the thesis's classifiers as
-:class:`ClassifierSpec` (LDA + Mahalanobis with the Fisher directions chosen by
-eq 9.8, RBF SVMs with C and gamma chosen by a cross-validation split by
-poser), which choose their hyper-parameters inside the training data.
+:class:`EvaluationResult` holds the true and predicted class of every face (a face the
+pipeline refused is predicted :data:`NOT_CLASSIFIED`) with the person it belongs to, and
+gives what the benchmark reports: the share of faces labelled, the accuracy of the labelled
+ones, the recall of each class and their mean (the sets are unbalanced: a classifier that
+says "neutral" to everything must not look good), and the confusion matrix.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from sklearn.metrics import confusion_matrix
 
-from aamcore.expression.concentration import choose_n_components
-from aamcore.expression.lda import FisherMahalanobis
-from aamcore.expression.svm import C_GRID, GAMMA_GRID, tune_svm
-
 NOT_CLASSIFIED = "--"
-"""The prediction of a face the pipeline refused (no face, the quality gate): always wrong."""
-
-
-@dataclass(frozen=True)
-class ClassifierSpec:
-    """A named way to fit a classifier on one training fold.
-
-    Attributes
-    ----------
-    name : str
-        Shown in tables (``LDA+Mahalanobis``, ``SVM DAG``).
-    fit : callable
-        ``fit(X (n, d), y (n,), groups (n,))`` returning a fitted estimator
-        with ``predict`` and ``get_params``.
-    """
-
-    name: str
-    fit: Callable[[np.ndarray, np.ndarray, np.ndarray], Any]
-
-
-def lda_mahalanobis_spec(n_trials: int = 25) -> ClassifierSpec:
-    """LDA + Mahalanobis with the number of Fisher directions chosen by eq 9.8 on the fold."""
-
-    def fit(X: np.ndarray, y: np.ndarray, groups: np.ndarray) -> FisherMahalanobis:
-        k = choose_n_components(X, y, n_trials=n_trials)
-        return FisherMahalanobis(n_components=k).fit(X, y)
-
-    return ClassifierSpec("LDA+Mahalanobis", fit)
-
-
-def svm_spec(
-    scheme: str,
-    C_grid: np.ndarray = C_GRID,
-    gamma_grid: np.ndarray = GAMMA_GRID,
-    inner_splits: int = 3,
-) -> ClassifierSpec:
-    """RBF SVM with the given multi-class scheme, C and gamma tuned on the fold."""
-    label = {"ova": "OvA", "ovo": "OvO", "dag": "DAG"}[scheme]
-
-    def fit(X: np.ndarray, y: np.ndarray, groups: np.ndarray) -> Any:
-        return tune_svm(X, y, groups, scheme, C_grid, gamma_grid, inner_splits)
-
-    return ClassifierSpec(f"SVM {label}", fit)
-
-
-def default_classifiers(
-    n_trials: int = 25, C_grid: np.ndarray = C_GRID, gamma_grid: np.ndarray = GAMMA_GRID
-) -> list[ClassifierSpec]:
-    """LDA+Mahalanobis and the three SVM schemes (``ova``, ``ovo``, ``dag``)."""
-    svms = [svm_spec(scheme, C_grid, gamma_grid) for scheme in ("ova", "ovo", "dag")]
-    return [lda_mahalanobis_spec(n_trials), *svms]
+"""The prediction of a face the pipeline refused (no face, the quality gate)."""
 
 
 @dataclass
@@ -136,6 +77,44 @@ class EvaluationResult:
         """Fraction of all faces classified correctly (refused ones count wrong)."""
         return float(np.mean(self.y_true == self.y_pred)) if self.n else float("nan")
 
+    @property
+    def labelled(self) -> np.ndarray:
+        """Faces (n,) the pipeline gave a label."""
+        return self.y_pred != NOT_CLASSIFIED
+
+    @property
+    def share_labelled(self) -> float:
+        """Fraction of the faces given a label."""
+        return float(self.labelled.mean()) if self.n else float("nan")
+
+    @property
+    def labelled_accuracy(self) -> float:
+        """Fraction of the labelled faces labelled right."""
+        mask = self.labelled
+        return float(np.mean(self.y_true[mask] == self.y_pred[mask])) if mask.any() \
+            else float("nan")
+
+    def recalls(self) -> dict[str, tuple[int, int]]:
+        """Per class: labelled faces of the class labelled right, and labelled faces of the
+        class (0 for a class without one)."""
+        mask = self.labelled
+        out = {}
+        for name in self.class_names:
+            mine = mask & (self.y_true == name)
+            out[name] = (int(np.sum(self.y_pred[mine] == name)), int(mine.sum()))
+        return out
+
+    @property
+    def mean_recall(self) -> float:
+        """Mean of the recalls of the classes with labelled faces."""
+        rates = [r / n for r, n in self.recalls().values() if n]
+        return float(np.mean(rates)) if rates else float("nan")
+
+    @property
+    def missing_classes(self) -> list[str]:
+        """Classes without a face here (said, not scored)."""
+        return [c for c in self.class_names if not np.any(self.y_true == c)]
+
     def per_class_rates(self) -> np.ndarray:
         """Fraction of each class classified correctly, shape (n_classes,)."""
         return np.diag(self.confusion_percent()[:, : len(self.class_names)]) / 100.0
@@ -149,6 +128,11 @@ class EvaluationResult:
             "columns": list(self.columns),
             "n_samples": self.n,
             "overall_rate": self.overall_rate,
+            "share_labelled": self.share_labelled,
+            "labelled_accuracy": self.labelled_accuracy,
+            "recalls": self.recalls(),
+            "mean_recall": self.mean_recall,
+            "missing_classes": self.missing_classes,
             "per_class_rates": dict(
                 zip(self.class_names, self.per_class_rates().tolist(), strict=True)
             ),

@@ -1,12 +1,12 @@
-"""The JAFFE expression benchmark behind ``aamtrack eval expression`` and the bench.
+"""JAFFE's protocol for JAFFE-only pipelines, behind ``aamtrack eval expression``.
 
-Every JAFFE image is fitted as the stack fits a frame
-(:func:`~aamcore.expression.training.jaffe_faces`) and every row
-(:class:`~aamcore.expression.variants.Variant`) is computed by the
-pipeline's own code (:func:`~aamcore.expression.analysis.observe`, the
-references of :mod:`.reference`), leave-one-poser-out over **all** faces of
+Every JAFFE image is fitted as the stack fits a frame (:func:`jaffe_faces`) and
+every row (:class:`~aamcore.evaluation.expression_variants.Variant`, trained on the
+other JAFFE posers alone) is computed by the pipeline's own code
+(:func:`~aamcore.expression.analysis.observe`, the references of
+:mod:`aamcore.expression.reference`), leave-one-poser-out over **all** faces of
 the class set: a face without a fit or refused by the quality gate is
-predicted :data:`~aamcore.expression.evaluation.NOT_CLASSIFIED`, counted
+predicted :data:`~aamcore.evaluation.expression_results.NOT_CLASSIFIED`, counted
 wrong, never dropped. Per fold (one poser held out):
 
 - the gate's shape template is the mean canonical shape of the training
@@ -16,47 +16,63 @@ wrong, never dropped. Per fold (one poser held out):
   images only), or for a ``causal`` row of the faces seen so far in a random order;
 - the classifier is trained on the training posers' classifiable faces of the
   class set, its hyper-parameters (where it has any) chosen inside them.
+
+The deployed classifier, learned from three expression sets, has its own JAFFE row in
+:mod:`.expression_heldout`.
 """
 
 from __future__ import annotations
 
-import tempfile
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from aamcore.evaluation.expression_results import NOT_CLASSIFIED, EvaluationResult
+from aamcore.evaluation.expression_variants import VARIANTS, Variant, fold_references
 from aamcore.expression.analysis import Observed, observe
-from aamcore.expression.classifier_file import ExpressionClassifier
-from aamcore.expression.evaluation import NOT_CLASSIFIED, ClassifierSpec, EvaluationResult
-from aamcore.expression.evaluation import default_classifiers as thesis_classifiers
+from aamcore.expression.crop import canonical_shape
 from aamcore.expression.face_classifier import fit_face_classifier
+from aamcore.expression.faces import LabelledFaces, fit_faces
 from aamcore.expression.labels import FIVE_CLASSES, SEVEN_CLASSES
-from aamcore.expression.pipeline import ExpressionPipeline
 from aamcore.expression.quality import landmark_problem
 from aamcore.expression.spec import BLOCK_NAMES, FeatureConfig, QualityLimits
 from aamcore.expression.svm import C_GRID, GAMMA_GRID
-from aamcore.expression.training import (
-    JaffeFaces,
-    jaffe_faces,
-    model_fingerprint,
-    shape_template,
-    train_deployed,
-)
-from aamcore.expression.variants import DEPLOYED, VARIANTS, Variant, fold_references
+from aamcore.expression.thesis_classifiers import ClassifierSpec
+from aamcore.expression.thesis_classifiers import default_classifiers as thesis_classifiers
+from aamcore.fitting.config import FITTER, FitterConfig
 from aamcore.fitting.model import FittingModel
+from aamcore.io.expression_sets import load_expression_set
 
 CLASS_SETS: dict[int, tuple[str, ...]] = {7: SEVEN_CLASSES, 5: FIVE_CLASSES}
-TARGETS: dict[int, float] = {7: 0.75, 5: 0.85}
-"""Leave-one-poser-out recognition rates the deployed pipeline must reach over all faces."""
-PROCESS_TARGET_MS = 5.0
-"""Median CPU time of one frame through the deployed pipeline (gate, features, classifier)."""
 ALL_BLOCKS = FeatureConfig(blocks=BLOCK_NAMES)
 """Every block is computed once; a row takes the ones it names."""
+
+
+def jaffe_faces(model_path: str | Path, folder: str | Path | None = None,
+                config: FitterConfig = FITTER) -> LabelledFaces:
+    """Every JAFFE image fitted by the model in ``model_path`` as ``config`` says, with its
+    class and poser (the images kept).
+
+    Raises
+    ------
+    DatasetError
+        When the folder is missing or holds an unreadable JAFFE file.
+    """
+    return fit_faces(FittingModel.load(model_path), load_expression_set("jaffe", folder), config,
+                     keep_images=True)
+
+
+def shape_template(faces: LabelledFaces, usable: np.ndarray) -> np.ndarray:
+    """Mean canonical shape (68, 2) of the usable faces' landmarks."""
+    if not np.any(usable):
+        raise ValueError("no usable face to make a shape template from")
+    return np.mean([canonical_shape(faces.landmarks[i]) for i in np.flatnonzero(usable)],
+                   axis=0)
 
 
 def features_name(variant: Variant) -> str:
@@ -64,14 +80,14 @@ def features_name(variant: Variant) -> str:
     return "+".join(variant.blocks) + (", relative" if variant.relative else ", absolute")
 
 
-def fold_usable(faces: JaffeFaces, observed: Observed, test: np.ndarray,
+def fold_usable(faces: LabelledFaces, observed: Observed, test: np.ndarray,
                 limits: QualityLimits) -> tuple[np.ndarray, dict[int, str]]:
     """The faces usable in the fold testing ``test`` (n,), and why each refused test face is.
 
     The test faces pass the gate once more with the training posers' shape template.
     """
     ok = observed.ok
-    template = shape_template(faces.observations, ok & ~test)
+    template = shape_template(faces, ok & ~test)
     why = {int(i): observed.problems[i] for i in np.flatnonzero(test & ~ok)}
     for i in np.flatnonzero(test & ok):
         problem = landmark_problem(faces.observations[i], limits, template)
@@ -95,7 +111,7 @@ def _fit(variant: Variant, Z: np.ndarray, y: np.ndarray, groups: np.ndarray,
 
 
 def evaluate_variant(
-    faces: JaffeFaces,
+    faces: LabelledFaces,
     observed: Observed,
     variant: Variant,
     n_classes: int,
@@ -106,7 +122,7 @@ def evaluate_variant(
 
     Parameters
     ----------
-    faces : JaffeFaces
+    faces : LabelledFaces
     observed : Observed
         :func:`~aamcore.expression.analysis.observe` of ``faces.observations``
         with the variant's blocks (or more) and no template.
@@ -158,9 +174,6 @@ class ExpressionBenchmark:
         Faces in the benchmark, fits the fitter's test rejected, faces not found.
     model : str
         The fitting model's file name.
-    process_ms : dict
-        Median, mean and max CPU milliseconds of one frame through the
-        deployed pipeline (empty when not measured).
     """
 
     results: dict[str, dict[int, EvaluationResult]]
@@ -168,62 +181,16 @@ class ExpressionBenchmark:
     n_fit_failed: int
     n_no_face: int
     model: str = ""
-    process_ms: dict[str, float] = field(default_factory=dict)
-
-    def passed(self, n_classes: int) -> bool:
-        """Whether the deployed row meets :data:`TARGETS` for the class count."""
-        return self.results[DEPLOYED.name][n_classes].overall_rate >= TARGETS[n_classes]
-
-    def process_passed(self) -> bool:
-        return self.process_ms.get("median", np.inf) < PROCESS_TARGET_MS
-
-    def checked(self) -> bool:
-        """Whether the deployed row was run (the targets are its)."""
-        return DEPLOYED.name in self.results
-
-    def targets_met(self) -> bool:
-        """Every target of the deployed row met (True when it was not run)."""
-        if not self.checked():
-            return True
-        rates = all(self.passed(n) for n in self.results[DEPLOYED.name])
-        return rates and (not self.process_ms or self.process_passed())
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable summary."""
         return {
             "protocol": "leave-one-poser-out on JAFFE, every face counted",
             "model": self.model, "n_faces": self.n_faces, "n_fit_failed": self.n_fit_failed,
-            "n_no_face": self.n_no_face, "deployed": DEPLOYED.name,
-            "targets": {str(k): v for k, v in TARGETS.items()},
-            "process_ms": self.process_ms, "process_target_ms": PROCESS_TARGET_MS,
-            "targets_met": self.targets_met(),
+            "n_no_face": self.n_no_face,
             "rows": {name: {str(n): r.to_dict() for n, r in by_n.items()}
                      for name, by_n in self.results.items()},
         }
-
-
-def time_process(faces: JaffeFaces, model_path: str | Path, repeats: int = 3
-                 ) -> dict[str, float]:
-    """CPU milliseconds of one frame through the deployed pipeline.
-
-    The classifier is trained on all faces, saved and reloaded; each poser's
-    images, ``repeats`` times over, are one stream with the stream reference
-    settings. CPU time, not wall time: the machine may be shared.
-    """
-    n_appearance = FittingModel.load(model_path).aam.n_appearance
-    classifier = train_deployed(faces, n_appearance).classifier(model_fingerprint(model_path))
-    with tempfile.TemporaryDirectory() as tmp:
-        classifier = ExpressionClassifier.load(classifier.save(Path(tmp) / "c.npz"))
-    times = []
-    with threadpool_limits(limits=1):
-        for poser in np.unique(faces.posers):
-            pipeline = ExpressionPipeline(classifier)
-            for i in np.tile(np.flatnonzero(faces.posers == poser), repeats):
-                start = time.process_time()
-                pipeline.process(faces.observations[i])
-                times.append(time.process_time() - start)
-    ms = 1e3 * np.array(times)
-    return {"median": float(np.median(ms)), "mean": float(ms.mean()), "max": float(ms.max())}
 
 
 def run_expression_benchmark(
@@ -233,9 +200,9 @@ def run_expression_benchmark(
     class_counts: Sequence[int] = (7, 5),
     thesis: dict[str, ClassifierSpec] | None = None,
     progress: Callable[[str], None] | None = None,
-    faces: JaffeFaces | None = None,
+    faces: LabelledFaces | None = None,
 ) -> ExpressionBenchmark:
-    """Score every row for every class count over all faces; time the deployed pipeline.
+    """Score every row for every class count over all faces.
 
     Parameters
     ----------
@@ -250,7 +217,7 @@ def run_expression_benchmark(
         The thesis's classifiers (:func:`thesis_specs`, full SVM grid by default).
     progress : callable, optional
         Called with a line of text after each row and class count.
-    faces : JaffeFaces, optional
+    faces : LabelledFaces, optional
         Faces already fitted by ``model_path`` (then ``folder`` is not read).
     """
     unknown = sorted(set(class_counts) - set(CLASS_SETS))
@@ -269,8 +236,5 @@ def run_expression_benchmark(
             if progress is not None:
                 progress(f"{variant.name}, {n} classes: {100 * result.overall_rate:.1f}% of "
                          f"{result.n} ({time.perf_counter() - started:.0f} s)")
-    bench = ExpressionBenchmark(results, len(faces.observations), int(faces.fit_failed.sum()),
-                                int(faces.no_face.sum()), Path(model_path).name)
-    if DEPLOYED in variants:
-        bench.process_ms = time_process(faces, model_path)
-    return bench
+    return ExpressionBenchmark(results, len(faces.labels), int(faces.fit_failed.sum()),
+                               int(faces.no_face.sum()), Path(model_path).name)

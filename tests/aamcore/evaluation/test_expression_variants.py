@@ -1,12 +1,12 @@
-"""aamcore.expression.variants: the rows of the benchmark and each fold's references."""
+"""aamcore.evaluation.expression_variants: the JAFFE-only rows and each fold's references."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from aamcore.expression.variants import (
-    DEPLOYED,
+from aamcore.evaluation.expression_variants import (
+    JAFFE_ONLY,
     VARIANTS,
     Variant,
     composed_stream,
@@ -16,13 +16,13 @@ from aamcore.expression.variants import (
 )
 
 
-def test_the_deployed_variant_and_the_rows() -> None:
-    assert DEPLOYED.blocks == ("hog", "shape") and DEPLOYED.relative
-    assert DEPLOYED.classifier == "lda" and DEPLOYED.test_stream == "balanced"
-    assert DEPLOYED.config().blocks == ("hog", "shape")
-    assert VARIANTS[0] is DEPLOYED and variant_named(DEPLOYED.name) is DEPLOYED
+def test_the_jaffe_only_variant_and_the_rows() -> None:
+    assert JAFFE_ONLY.blocks == ("hog", "shape") and JAFFE_ONLY.relative
+    assert JAFFE_ONLY.classifier == "lda" and JAFFE_ONLY.test_stream == "balanced"
+    assert JAFFE_ONLY.config().blocks == ("hog", "shape")
+    assert VARIANTS[0] is JAFFE_ONLY and variant_named(JAFFE_ONLY.name) is JAFFE_ONLY
     assert len({v.name for v in VARIANTS}) == len(VARIANTS)
-    assert select(["deployed"]) == [DEPLOYED]
+    assert select(["JAFFE only"]) == [JAFFE_ONLY]
     assert len(select(["thesis"])) == 4 and select() == list(VARIANTS)
     with pytest.raises(ValueError, match="no variant matches"):
         select(["lbp"])
@@ -44,7 +44,7 @@ def test_each_poser_gets_the_median_of_its_own_usable_faces() -> None:
     posers = np.array(["A", "A", "A", "B", "B", "B"])
     usable = np.array([True, True, True, True, True, False])
     test = posers == "B"
-    R = fold_references(X, labels, posers, usable, test, DEPLOYED)
+    R = fold_references(X, labels, posers, usable, test, JAFFE_ONLY)
     np.testing.assert_allclose(R[:, 0], [3.0, 3.0, 3.0, 15.0, 15.0, 15.0])
     heavy = Variant("h", ("hog",), test_stream="neutral-heavy")
     R = fold_references(X, labels, posers, usable, test, heavy)

@@ -1,5 +1,4 @@
-"""aamcore.expression.evaluation: results over every face (refused ones counted wrong) and the
-thesis's classifiers."""
+"""aamcore.evaluation.expression_results: scores over every face, refused ones apart."""
 
 from __future__ import annotations
 
@@ -8,13 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from aamcore.expression.evaluation import (
-    NOT_CLASSIFIED,
-    EvaluationResult,
-    default_classifiers,
-    lda_mahalanobis_spec,
-)
-from tests.aamcore.expression.feature_sets import FeatureSet
+from aamcore.evaluation.expression_results import NOT_CLASSIFIED, EvaluationResult
 
 
 def test_result_summaries_are_consistent() -> None:
@@ -47,13 +40,16 @@ def test_refused_faces_count_wrong_and_get_their_own_column() -> None:
     assert result.to_dict()["refused"] == result.refused
 
 
-def test_the_thesis_classifiers_fit_inside_the_training_data(five_posers: FeatureSet) -> None:
-    specs = default_classifiers(n_trials=2, C_grid=np.array([8.0]), gamma_grid=np.array([0.5]))
-    assert [s.name for s in specs] == ["LDA+Mahalanobis", "SVM OvA", "SVM OvO", "SVM DAG"]
-    X = five_posers.features[:, :50]
-    train = five_posers.posers != "KA"
-    for spec in specs:
-        model = spec.fit(X[train], five_posers.labels[train], five_posers.posers[train])
-        assert set(model.predict(X[~train])) <= set(five_posers.labels)
-    lda = lda_mahalanobis_spec(n_trials=2).fit(X, five_posers.labels, five_posers.posers)
-    assert 1 <= lda.n_components <= 6
+def test_labelled_faces_are_scored_apart_and_every_class_counts_alike() -> None:
+    y_true = np.array(["NE"] * 8 + ["HA", "HA", "SU", "SU"])
+    y_pred = np.array(["NE"] * 7 + [NOT_CLASSIFIED, "NE", "HA", "NE", NOT_CLASSIFIED])
+    result = EvaluationResult("x", "f", ("NE", "HA", "SU", "FE"), y_true, y_pred,
+                              np.array(["A"] * 12))
+    assert result.share_labelled == pytest.approx(10 / 12)
+    assert result.labelled_accuracy == pytest.approx(8 / 10)
+    assert result.recalls() == {"NE": (7, 7), "HA": (1, 2), "SU": (0, 1), "FE": (0, 0)}
+    # Saying "neutral" to most faces does not make a good mean of the classes' recalls.
+    assert result.mean_recall == pytest.approx((1 + 0.5 + 0) / 3)
+    assert result.missing_classes == ["FE"]
+    summary = json.loads(json.dumps(result.to_dict()))
+    assert summary["missing_classes"] == ["FE"] and summary["recalls"]["HA"] == [1, 2]

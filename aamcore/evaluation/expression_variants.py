@@ -1,7 +1,8 @@
-"""The expression pipelines the benchmark scores, the deployed one among them.
+"""The JAFFE-only expression pipelines of the leave-one-poser-out rows (:mod:`.expression_lopo`).
 
 A :class:`Variant` names feature blocks and their weights, a reference and a
-classifier. The deployed variant (:data:`DEPLOYED`): HOG patches around the
+classifier, each trained on the other JAFFE posers alone. :data:`JAFFE_ONLY`, the
+deployed pipeline before the three expression sets: HOG patches around the
 51 inner landmarks plus the 68 landmarks in the canonical frame, relative to
 the face's reference, weighted 1:1, shrinkage LDA. The comparison rows: the
 blocks alone, without a reference, with a young (causal) reference, the RBF
@@ -22,10 +23,10 @@ from aamcore.expression.spec import FeatureConfig
 
 REFERENCES = ("none", "median", "causal")
 TEST_STREAMS = ("balanced", "neutral-heavy")
-FACE_CLASSIFIERS = ("lda", "rbf_svm")
+FACE_CLASSIFIERS = ("lda", "rbf_svm", "logistic")
 """Classifiers of :func:`~aamcore.expression.face_classifier.fit_face_classifier`."""
 THESIS_CLASSIFIERS = ("LDA+Mahalanobis", "SVM OvA", "SVM OvO", "SVM DAG")
-"""The thesis's classifiers (:func:`~aamcore.expression.evaluation.default_classifiers`)."""
+"""The thesis's classifiers (:func:`~aamcore.expression.thesis_classifiers.default_classifiers`)."""
 NEUTRAL = "NE"
 NEUTRAL_SHARE = 2.0 / 3.0
 """Share of neutral faces in a ``neutral-heavy`` test stream."""
@@ -86,15 +87,13 @@ class Variant:
         return (base or FeatureConfig()).with_blocks(self.blocks)
 
 
-DEPLOYED = Variant("hog+shape (1:1), relative, LDA (deployed)", ("hog", "shape"))
-"""The variant the library's and the stack's classifier is trained with."""
-PERSON_INDEPENDENT = Variant("hog+shape (1:1), absolute, LDA (person-independent)",
-                             ("hog", "shape"), "none")
-"""The deployed classifier's person-independent model: it decides until the stream has a
-neutral reference, and says which frames are neutral."""
+JAFFE_ONLY = Variant("hog+shape (1:1), relative, LDA (JAFFE only, deployed before)",
+                     ("hog", "shape"))
+"""The pipeline the stack deployed before it learned from the three expression sets."""
 VARIANTS: tuple[Variant, ...] = (
-    DEPLOYED,
-    PERSON_INDEPENDENT,
+    JAFFE_ONLY,
+    Variant("hog+shape (1:1), absolute, LDA", ("hog", "shape"), "none"),
+    Variant("hog+shape (1:1), relative, logistic", ("hog", "shape"), classifier="logistic"),
     Variant("hog, relative, LDA", ("hog",)),
     Variant("hog, absolute, LDA", ("hog",), "none"),
     Variant("shape, relative, LDA", ("shape",)),

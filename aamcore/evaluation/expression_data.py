@@ -1,0 +1,126 @@
+"""The expression benchmark's faces: every face of the three sets as the stack sees it, cached.
+
+:func:`bench_faces` fits every face of the expression sets with a model as the stack
+fits a stream's first frame (:func:`~aamcore.expression.faces.fit_faces`) and computes
+its deployed feature vector and the quality gate's verdict; both are kept in the model
+cache (named after the model's fingerprint, the algorithm and the versions of the fits
+and features), so that the benchmark's runs reuse them. :class:`BenchFaces` holds them
+with the class, person (``set/person``), set and held-out flag of each face.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from aamcore.config import cache_dir
+from aamcore.expression.analysis import observe
+from aamcore.expression.faces import FACES_VERSION, LabelledFaces, fit_faces
+from aamcore.expression.spec import FEATURE_VERSION, QualityLimits
+from aamcore.expression.training import FEATURES, model_fingerprint
+from aamcore.fitting.config import FITTER, FitterConfig
+from aamcore.fitting.model import FittingModel
+from aamcore.io.expression_sets import EXPRESSION_SETS, load_expression_set
+
+
+@dataclass
+class BenchFaces:
+    """Every face of the benchmark with its features.
+
+    Attributes
+    ----------
+    faces : LabelledFaces
+    X : (n, d) float64 array
+        Deployed feature vectors (zero where the gate refused the face).
+    problems : (n,) str array
+        The gate's verdict without a shape template (``""``: classifiable).
+    dims : dict
+        Feature block lengths.
+    """
+
+    faces: LabelledFaces
+    X: np.ndarray
+    problems: np.ndarray
+    dims: dict[str, int]
+
+    @property
+    def labels(self) -> np.ndarray:
+        return self.faces.labels
+
+    @property
+    def sets(self) -> np.ndarray:
+        return self.faces.sets
+
+    @property
+    def persons(self) -> np.ndarray:
+        """``set/person`` of each face (n,): unique across sets."""
+        return np.char.add(np.char.add(self.faces.sets.astype(str), "/"),
+                           self.faces.posers.astype(str))
+
+    @property
+    def ok(self) -> np.ndarray:
+        """Faces (n,) the gate accepts (before the shape template)."""
+        return self.problems == ""
+
+    @property
+    def held(self) -> np.ndarray:
+        """Faces (n,) of the held-out people (:mod:`aamcore.io.expression_sets`)."""
+        from aamcore.io.expression_sets import is_held_out
+
+        return np.array([is_held_out(s, p) for s, p in zip(self.faces.sets, self.faces.posers,
+                                                           strict=True)], dtype=bool)
+
+    def labelled_as_persons(self) -> BenchFaces:
+        """The same faces with each person's faces of each class taken as one person: the
+        sessions of streams that open on one expression and stay there."""
+        faces = self.faces.subset(np.arange(len(self.labels)))
+        faces.posers = np.char.add(np.char.add(faces.posers.astype(str), "#"),
+                                   faces.labels.astype(str))
+        return BenchFaces(faces, self.X, self.problems, self.dims)
+
+    def subset(self, keep: np.ndarray) -> BenchFaces:
+        index = np.flatnonzero(keep) if np.asarray(keep).dtype == bool else np.asarray(keep)
+        return BenchFaces(self.faces.subset(index), self.X[index], self.problems[index],
+                          self.dims)
+
+
+def _set_faces(model: Path, name: str, config: FitterConfig, say: Callable[[str], None]
+               ) -> BenchFaces:
+    stem = (f"expression-bench-{model_fingerprint(model)}-{config.algorithm}-{name}"
+            f"-f{FACES_VERSION}-x{FEATURE_VERSION}")
+    path = cache_dir() / f"{stem}.npz"
+    if path.is_file():
+        faces = LabelledFaces.load(path)
+        with np.load(path, allow_pickle=False) as f:
+            if faces is not None and "X" in f:
+                return BenchFaces(faces, f["X"], f["problems"], {k: int(v) for k, v in
+                                                                 zip(f["block_names"],
+                                                                     f["block_dims"],
+                                                                     strict=True)})
+    say(f"fitting every face of {name} once (kept in {path.parent})")
+    faces = fit_faces(FittingModel.load(model), load_expression_set(name), config)
+    observed = observe(faces.observations, FEATURES, QualityLimits())
+    X, dims = observed.vectors(FEATURES.blocks), observed.dims(FEATURES.blocks)
+    problems = np.array(observed.problems)
+    tmp = path.with_name(f"{stem}.tmp.npz")
+    faces.save(tmp)
+    with np.load(tmp, allow_pickle=False) as f:
+        saved = dict(f)
+    np.savez(tmp, **saved, X=X.astype(np.float32), problems=problems,
+             block_names=np.array(list(dims)), block_dims=np.array(list(dims.values())))
+    tmp.replace(path)
+    return BenchFaces(faces, X.astype(np.float32).astype(np.float64), problems, dims)
+
+
+def bench_faces(model: str | Path, sets: Sequence[str] = EXPRESSION_SETS,
+                config: FitterConfig = FITTER, say: Callable[[str], None] | None = None
+                ) -> BenchFaces:
+    """Every face of ``sets`` fitted by ``model`` as ``config`` says, with its features
+    (cached; module docstring)."""
+    parts = [_set_faces(Path(model), name, config, say or (lambda _: None)) for name in sets]
+    return BenchFaces(LabelledFaces.concatenate([p.faces for p in parts]),
+                      np.vstack([p.X for p in parts]), np.concatenate([p.problems for p in parts]),
+                      parts[0].dims)

@@ -1,0 +1,71 @@
+"""aamcore.expression.learning: the person-independent and relative models, their out-of-fold
+temperatures and their fusion."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from aamcore.expression.calibration import softmax
+from aamcore.expression.face_classifier import fit_logistic
+from aamcore.expression.learning import Recipe, fuse, learn, out_of_fold, person_references
+from tests.aamcore.expression.feature_sets import FeatureSet
+
+
+def test_both_models_learn_the_faces_of_people_they_never_saw(five_posers: FeatureSet) -> None:
+    X, y, people = five_posers.features, five_posers.labels, five_posers.posers
+    sets = np.full(len(y), "jaffe")
+    train = people != "KA"
+    learned = learn(X[train], y[train], people[train], sets[train], {"hog": X.shape[1]},
+                    Recipe(folds=2))
+    assert learned.relative is not None and learned.relative.classes == learned.absolute.classes
+    assert learned.counts == {"absolute": int(train.sum()), "relative": int(train.sum())}
+    for t in (learned.absolute_temperature, learned.temperature, learned.fused_temperature):
+        assert 0.01 < t < 100.0
+    test = ~train
+    R = person_references(X[test], people[test], 3)[0]
+    fused = learned.fused_probabilities(X[test], R)
+    np.testing.assert_allclose(fused.sum(axis=1), 1.0)
+    classes = np.array(learned.absolute.classes)
+    chance = 1.0 / len(classes)
+    # A poser never seen, her faces one session: well above chance (any recipe's model).
+    assert np.mean(classes[fused.argmax(axis=1)] == y[test]) > 2 * chance
+
+
+def test_each_person_is_scored_by_a_model_that_never_saw_them(five_posers: FeatureSet) -> None:
+    X, y, people = five_posers.features, five_posers.labels, five_posers.posers
+    seen: list[set[str]] = []
+
+    def fit(rows: np.ndarray):
+        seen.append(set(people[rows]))
+        return fit_logistic(X[rows], y[rows], {"hog": X.shape[1]})
+
+    scores = out_of_fold(fit, tuple(sorted(set(y))), X, y, people, folds=5)
+    assert scores.shape == (len(y), 7) and [len(s) for s in seen] == [4] * 5
+    assert set.union(*seen) == set(people)
+
+
+def test_references_are_medians_of_people_with_enough_faces() -> None:
+    X = np.array([[1.0], [3.0], [8.0], [10.0], [20.0]])
+    R, has = person_references(X, np.array(["a", "a", "a", "b", "b"]), 3)
+    assert has.tolist() == [True, True, True, False, False]
+    np.testing.assert_allclose(R[:3, 0], 3.0)
+
+
+def test_the_fused_score_weighs_the_absolute_model() -> None:
+    rel, ab = np.array([[2.0, 0.0, 0.0]]), np.array([[0.0, 3.0, 0.0]])
+    np.testing.assert_allclose(fuse(rel, ab, 1.0, 1.0, 0.0), softmax(rel))
+    assert fuse(rel, ab, 1.0, 1.0, 0.25).argmax() == 0
+    assert fuse(rel, ab, 1.0, 1.0, 1.0).argmax() == 1
+
+
+def test_what_cannot_be_learned_is_refused_or_left_out(five_posers: FeatureSet) -> None:
+    X, y, people = five_posers.features, five_posers.labels, five_posers.posers
+    sets = np.full(len(y), "jaffe")
+    with pytest.raises(ValueError, match="two classes or more"):
+        learn(X[:3], np.array(["HA"] * 3), people[:3], sets[:3], {"hog": X.shape[1]})
+    alone = learn(X, y, people, sets, {"hog": X.shape[1]}, Recipe(min_reference_faces=1000))
+    assert alone.relative is None and alone.counts["relative"] == 0
+    for bad in ({"C": 0.0}, {"absolute_weight": -1.0}, {"folds": 1}):
+        with pytest.raises(ValueError):
+            Recipe(**bad)  # type: ignore[arg-type]
