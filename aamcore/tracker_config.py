@@ -58,7 +58,8 @@ class TrackerConfig(Settings):
                              "(1: the largest face)", low=1, high=defaults.MAX_FACES,
                              metavar="N")
     warp: str = setting("auto", "where the image warp runs: auto (the GPU worker thread on a "
-                        "hardware GL renderer, else the CPU), gpu (falls back to cpu) or cpu",
+                        "hardware GL renderer for a model of 20,000 reference pixels or more, "
+                        "else the CPU), gpu (falls back to cpu) or cpu",
                         choices=WARPS)
     smoothing: bool = setting(True, "smooth the landmarks and the head pose over time (One "
                               "Euro filter)", flag="--smooth")

@@ -14,7 +14,7 @@
     # mode = "client"                         # peer by default; client listens on nothing
 
     [services.fitter]                         # the fitter's options, by name
-    warp = "gpu"
+    warp = "auto"
 
 Each ``[services.NAME]`` table holds the service's options under their field
 names (``services/<name>/options.py``), checked like the command line.

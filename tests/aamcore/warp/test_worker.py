@@ -8,6 +8,7 @@ import threading
 import numpy as np
 import pytest
 
+from aamcore.fitting import warps
 from aamcore.fitting.warps import make_warp
 from aamcore.warp.worker import CPUWarp, GLUnavailableError, GLWarpWorker
 
@@ -123,8 +124,18 @@ def test_make_warp_falls_back_to_the_cpu(imm_model, caplog: pytest.LogCaptureFix
     assert len(reasons) == 1 and "using the CPU warp" in reasons[0]
 
 
-def test_auto_uses_the_cpu_on_a_software_renderer(imm_model) -> None:
+def test_auto_uses_the_cpu_for_a_small_model(imm_model, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(warps, "GPU_MIN_PIXELS", imm_model.frame.n_pixels + 1)
+    warp, path = make_warp(imm_model, "auto")
+    try:
+        assert path == "cpu" and isinstance(warp, CPUWarp)  # no GL context made
+    finally:
+        warp.close()
 
+
+def test_auto_uses_the_cpu_on_a_software_renderer(imm_model, monkeypatch: pytest.MonkeyPatch
+                                                  ) -> None:
+    monkeypatch.setattr(warps, "GPU_MIN_PIXELS", 0)
     warp, path = make_warp(imm_model, "auto")
     try:
         renderer = getattr(warp, "renderer", "")
