@@ -17,9 +17,10 @@ from tests.expectations import FRAMES, GOOD_SHARE, check_poses
 
 @pytest.fixture(scope="module")
 def results(model_path: Path, classifier_path: Path, single_face: Path) -> list[FaceResult]:
-    """The defaults: the default profile's classifier for the model (``classifier_path``,
-    trained on first use), smoothing and the stack's label hold."""
-    return list(FaceTracker(model=model_path).process_video(single_face))
+    """The defaults (smoothing, the stack's label hold) with the small classifier made for the
+    model (the default profile's learns from every face of three sets: minutes, not for tests)."""
+    return list(FaceTracker(model=model_path, classifier=classifier_path)
+                .process_video(single_face))
 
 
 def test_every_frame_of_a_face_video_has_landmarks_pose_and_expression(
@@ -93,8 +94,9 @@ def test_good_fits_carry_occlusion_flags(results: list[FaceResult]) -> None:
     assert all(r.occluded is None for r in results if not r.success)
 
 
-def test_a_frame_without_a_face_and_a_bad_video(model_path: Path, tmp_path: Path) -> None:
-    tracker = FaceTracker(model=model_path)
+def test_a_frame_without_a_face_and_a_bad_video(model_path: Path, classifier_path: Path,
+                                                tmp_path: Path) -> None:
+    tracker = FaceTracker(model=model_path, classifier=classifier_path)
     empty = tracker.process(np.full((360, 640, 3), 90, np.uint8), timestamp=1.5)
     assert not empty.success and empty.reason == "no face" and empty.landmarks.shape == (0, 2)
     assert empty.confidence == 0.0 and math.isnan(empty.yaw_deg) and empty.timestamp == 1.5

@@ -102,7 +102,7 @@ def test_track_writes_the_rows_of_a_video_and_says_when_it_is_cut_short(
 ) -> None:
     out, drawn = tmp_path / "track.csv", tmp_path / "track.mp4"
     done = run_cli("track", str(single_face), "--csv", str(out), "--model", str(model_path),
-                   "--annotate", str(drawn))
+                   "--classifier", str(classifier_path), "--annotate", str(drawn))
     assert done.returncode == 0, done.stderr
     assert _frames_read(drawn) == FRAMES
     lines = done.stderr.splitlines()  # not a terminal: lines, no bar
@@ -112,8 +112,7 @@ def test_track_writes_the_rows_of_a_video_and_says_when_it_is_cut_short(
     rows = list(csv.DictReader(out.open()))
     assert len(rows) == FRAMES and sum(r["success"] == "1" for r in rows) >= GOOD_SHARE * FRAMES
     assert all(r["pose_Tz"] for r in rows if r["success"] == "1")
-    # expressions by default (the default profile's classifier for the model,
-    # ``classifier_path``): a label or the reason there is none on every row
+    # expressions: a label or the reason there is none on every row
     assert all(bool(r["expression"]) != bool(r["expression_reason"]) for r in rows)
     assert sum(bool(r["expression"]) for r in rows) >= GOOD_SHARE * FRAMES
     avi = tmp_path / "clip.avi"
@@ -125,7 +124,8 @@ def test_track_writes_the_rows_of_a_video_and_says_when_it_is_cut_short(
     cut = tmp_path / "cut.avi"
     cut.write_bytes(avi.read_bytes()[: avi.stat().st_size // 2])
     out = tmp_path / "cut.csv"
-    done = run_cli("track", str(cut), "--csv", str(out), "--model", str(model_path))
+    done = run_cli("track", str(cut), "--csv", str(out), "--model", str(model_path),
+                   "--classifier", str(classifier_path))
     assert done.returncode == 1 and "ended after" in done.stderr
     assert "Traceback" not in done.stderr
     assert 10 < len(list(csv.DictReader(out.open()))) < 72
