@@ -111,7 +111,7 @@ def annotate_rows(video: Path, pairs: int) -> dict[str, list[float]]:
     profile = profile_named("default")
     model = profile.model_path()
     classifier = profile.classifier_path(model)
-    tracker = FaceTracker(model, classifier, smoothing=True)
+    tracker = FaceTracker(model=model, classifier=classifier, smoothing=True)
     got: dict[str, list[float]] = {k: [] for k in (
         "command", "command+annotate", "wall", "wall+annotate", "cpu", "cpu+annotate")}
     with tempfile.TemporaryDirectory() as tmp, Annotator() as annotator:
