@@ -5,18 +5,17 @@ messages (``aamtrack export``)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from aamcore.expression.recogniser import Recognition
-from aamcore.fitting.result import AAMFit, LandmarkFit
 from aamcore.model.similarity import Similarity
-from aamcore.pose.estimator import HeadPose
+from aamcore.operators.faces import FaceFit, FacePose, FrameRef
 
 NO_FACE = "no face"
-"""The reason of a result without a face."""
+"""The reason of a result without a face (:data:`aamcore.operators.faces.NO_FACE`)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,19 +149,25 @@ def joined_result(index: int, t: float, points: np.ndarray, success: bool, confi
                       reason=reason or pose.reason, **common)
 
 
-def result_of(index: int, t: float, fit: LandmarkFit, points: np.ndarray,
-              pose: HeadPose | None, why: str, expression: Recognition | None) -> FaceResult:
-    """The library's :class:`FaceResult` of a frame's parts (:func:`joined_result`)."""
-    occluded = fit.occluded if isinstance(fit, AAMFit) and not fit.failed else None
+def result_of(frame: FrameRef, face: FaceFit, pose: FacePose | None,
+              expression: Recognition | None) -> FaceResult:
+    """The library's :class:`FaceResult` of one face's entries from the stages'
+    operators (:func:`joined_result`)."""
+    fit = face.fit
+    occluded = face.occluded if not face.failed else None
     parts = None
-    if pose is not None:
-        est = pose.estimate
-        roll, pitch, yaw = est.rpy
-        parts = PoseParts(est.R, est.T, roll, pitch, yaw, est.reliable, pose.reason)
+    if pose is not None and pose.found:
+        roll, pitch, yaw = pose.angles_deg
+        parts = PoseParts(pose.rotation, pose.translation_mm, roll, pitch, yaw,  # type: ignore
+                          pose.reliable, pose.reason)
+    why = f"no pose: {pose.reason}" if pose is not None and not pose.found else ""
     label, names, scores, expression_reason = None, (), None, ""
     if expression is not None:
         label, names, scores = expression.label, expression.class_names, expression.scores
         expression_reason = expression.reason
-    return joined_result(index, t, points, fit.ok, fit.confidence, fit.similarity,
-                         fit.reason or why, occluded, parts, label, names, scores,
-                         expression_reason)
+    confidence = 0.0 if fit is None else fit.confidence
+    similarity = None if fit is None else fit.similarity
+    joined = joined_result(frame.index, frame.t, face.points, not face.failed, confidence,
+                           similarity, face.reason or why, occluded, parts, label, names,
+                           scores, expression_reason)
+    return replace(joined, face_id=face.face_id)

@@ -1,11 +1,10 @@
-"""Named pipelines: the default stack and the thesis's own, each a first-class choice.
+"""Named pipelines: the default stack and the thesis's own, each a preset of the options tree.
 
-A :class:`Profile` names everything a pipeline is made of: how the fitting
-model's update matrices are learned, the fitting (:class:`~aamcore.fitting.config.FitterConfig`),
-the head-pose estimator and the expression features. ``aamtrack model prepare
---profile NAME`` trains what it needs, ``aamtrack run --profile NAME`` and
-``FaceTracker(profile=NAME)`` run it; options given beside a profile override
-its choices.
+A :class:`Profile` is a named :class:`~aamcore.operators.options.PipelineOptions`: how the
+fitting model's update matrices are learned, the fitting, the head-pose estimator and the
+expression features are values of it. ``aamtrack model prepare --profile NAME`` trains
+what it needs, ``aamtrack run --profile NAME`` and ``FaceTracker(profile=NAME)`` run it;
+options given beside a profile go over its values.
 
 - ``default``: the local-binary landmark regressor with its learned quality
   test, the AAM's appearance and occlusion flags on every good fit, the
@@ -17,6 +16,9 @@ its choices.
   anthropometric head (the OpenFace mean 68-point head, the closest to the
   thesis's laser-scanned model that can be had; the jaw left out, as measured
   in ``bench/bench_posit.py``), and LDA + Mahalanobis on the appearance ``c``.
+
+:func:`model_path` and :func:`classifier_path` are the one door from running code to
+training: a model or classifier the options do not name is trained and cached on first use.
 """
 
 from __future__ import annotations
@@ -24,78 +26,34 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from aamcore import defaults
-from aamcore.fitting.config import FitterConfig
-
-EXPRESSION_FEATURES = ("deployed", "thesis")
-"""Expression feature sets a profile can name (:mod:`aamcore.expression.training`)."""
+from aamcore.operators.options import PIPELINE, ModelOptions, PipelineOptions
 
 
 @dataclass(frozen=True)
 class Profile:
-    """One pipeline.
+    """One pipeline: a name, a line, and its options.
 
     Attributes
     ----------
     name : str
     summary : str
-    fitter : FitterConfig
-    update_method : {"jacobian", "regression"}
-        How the update matrices of the profile's model are learned.
-    pose_estimator : str
-        One of :data:`aamcore.defaults.POSE_ESTIMATORS`.
-    expression : str
-        One of :data:`EXPRESSION_FEATURES`.
+    options : PipelineOptions
     """
 
     name: str
     summary: str
-    fitter: FitterConfig
-    update_method: str = "jacobian"
-    pose_estimator: str = defaults.POSE_ESTIMATOR
-    expression: str = "deployed"
-
-    def __post_init__(self) -> None:
-        if self.pose_estimator not in defaults.POSE_ESTIMATORS:
-            raise ValueError(f"unknown pose estimator {self.pose_estimator!r}")
-        if self.expression not in EXPRESSION_FEATURES:
-            raise ValueError(f"unknown expression features {self.expression!r}: choose one "
-                             f"of {EXPRESSION_FEATURES}")
-
-    def model_path(self, max_images: int = defaults.MODEL_UPDATE_IMAGES,
-                   limit: int | None = None, update_method: str | None = None) -> Path:
-        """The profile's fitting model: the default recipe with its update method (or
-        ``update_method``), trained and cached on first use. The one door from running code
-        to training: the library, the services and the commands that run the model ask it
-        here."""
-        from aamcore.fitting.training.prepare import default_model_path
-
-        return default_model_path(max_images=max_images, limit=limit,
-                                  update_method=update_method or self.update_method)
-
-    def classifier_path(self, model_path: str | Path, algorithm: str | None = None) -> Path:
-        """The profile's expression classifier for the fits of ``model_path`` by
-        ``algorithm`` (the profile's by default), trained and cached on first use.
-
-        Raises
-        ------
-        aamcore.io.sample.DatasetError
-            When an expression set is missing or unreadable, or no face can be classified.
-        """
-        from aamcore.expression.training import classifier_path
-
-        return classifier_path(model_path, algorithm or self.fitter.algorithm, self.expression)
+    options: PipelineOptions
 
 
 PROFILES: dict[str, Profile] = {
     p.name: p
     for p in (
         Profile("default", "local-binary landmarks, the AAM's appearance and occlusion flags, "
-                "contour head pose, HOG + shape expression", FitterConfig()),
+                "contour head pose, HOG + shape expression", PIPELINE),
         Profile("thesis", "the thesis: fixed-Jacobian AAM fitting, eq. 7.2 failure test, "
                 "POSIT on the anthropometric mean head, LDA + Mahalanobis on c",
-                FitterConfig(algorithm="fixed-jacobian", failure_test="eq7.2"),
-                pose_estimator="posit", expression="thesis"),
+                PIPELINE.with_values(algorithm="fixed-jacobian", failure_test="eq7.2",
+                                     pose_estimator="posit", expression_features="thesis")),
     )
 }
 """Profile name -> :class:`Profile`."""
@@ -112,3 +70,31 @@ def profile_named(name: str) -> Profile:
     if name not in PROFILES:
         raise ValueError(f"unknown profile {name!r}: choose one of {list(PROFILES)}")
     return PROFILES[name]
+
+
+def model_path(model: ModelOptions = PIPELINE.model) -> Path:
+    """The fitting model's file: the one named, or the default recipe with the update method
+    asked for, trained and cached on first use."""
+    if model.file:
+        return Path(model.file)
+    from aamcore.fitting.training.prepare import default_model_path
+
+    return default_model_path(max_images=model.images, limit=model.limit or None,
+                              update_method=model.update)
+
+
+def classifier_path(model: str | Path, options: PipelineOptions = PIPELINE) -> Path:
+    """The expression classifier of ``options`` for the fits of the model file ``model``:
+    the one named, or the one of its features for the model and the fitting algorithm,
+    trained and cached on first use.
+
+    Raises
+    ------
+    aamcore.io.sample.DatasetError
+        When an expression set is missing or unreadable, or no face can be classified.
+    """
+    if options.expression.classifier:
+        return Path(options.expression.classifier)
+    from aamcore.expression.training import classifier_path as trained
+
+    return trained(model, options.fit.fitting.algorithm, options.expression.features)

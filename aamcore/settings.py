@@ -1,15 +1,17 @@
 """Settings: dataclass fields that carry their documentation, range and choices, checked once.
 
-A configuration (:class:`~aamcore.tracker_config.TrackerConfig` and its parts) is a
+A configuration (:class:`~aamcore.operators.options.PipelineOptions` and its parts) is a
 frozen dataclass of :class:`Settings` whose fields are made with :func:`setting` (a
 value) or :func:`group` (another such dataclass, whose settings are named with a
 prefix). From that one declaration
 
 - the dataclass checks every value on construction and raises :class:`ConfigError`
-  naming the setting at fault;
+  naming the setting at fault (and its stage: :attr:`Settings.STAGE` of the part that
+  holds it);
 - :meth:`Settings.settings` lists every value as a flat :class:`Setting` (name, type,
-  default, help, choices, range, command-line flag), from which the command line, the
-  services' options and the stack file are made (:mod:`services.bus.options`);
+  default, help, choices, range, command-line flag, stage), from which the command line
+  and the stack file are made (:mod:`services.bus.options`: the services' options are
+  such dataclasses too, holding the parts of their stages);
 - :meth:`Settings.values` and :meth:`Settings.with_values` read and set them by their
   flat names (``refit_every`` for ``refit.every``).
 
@@ -24,14 +26,17 @@ import difflib
 import math
 import types
 import typing
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Self
+from typing import Any, ClassVar, Self
 
 _NO_VALUE = object()
+NO_VALUE = _NO_VALUE
+"""The value of an error about a setting given no value (an unknown name)."""
 
 
 class ConfigError(ValueError):
-    """A setting's value is not acceptable; the message names the setting.
+    """A setting's value is not acceptable; the message names the setting and its stage.
 
     Attributes
     ----------
@@ -40,16 +45,26 @@ class ConfigError(ValueError):
     problem : str
         What is wrong, without the name (the same whichever way the value was given).
     value : object
+    stage : str
+        The pipeline stage the setting belongs to (``fit``; empty when none or unknown).
     """
 
-    def __init__(self, field: str | None, value: Any, problem: str) -> None:
-        shown = "" if value is _NO_VALUE else f" {value!r}"
-        super().__init__(f"{field}{shown}: {problem}" if field else problem)
-        self.field, self.value, self.problem = field, value, problem
+    def __init__(self, field: str | None, value: Any, problem: str, stage: str = "",
+                 shown: str | None = None) -> None:
+        name = shown or field
+        said = "" if value is _NO_VALUE else f" {value!r}"
+        where = f" ({stage} stage)" if stage else ""
+        super().__init__(f"{name}{said}: {problem}{where}" if name else problem + where)
+        self.field, self.value, self.problem, self.stage = field, value, problem, stage
 
-    def renamed(self, field: str) -> ConfigError:
-        """The same error naming the setting ``field`` (its flat name in a larger one)."""
-        return ConfigError(field, self.value, self.problem)
+    def renamed(self, field: str, stage: str = "") -> ConfigError:
+        """The same error naming the setting ``field`` (its flat name in a larger one) and
+        its ``stage`` (this one's if not given)."""
+        return ConfigError(field, self.value, self.problem, stage or self.stage)
+
+    def shown_as(self, flag: str) -> ConfigError:
+        """The same error naming the setting by ``flag`` (``--refit-every``)."""
+        return type(self)(self.field, self.value, self.problem, self.stage, flag)
 
 
 @dataclass(frozen=True)
@@ -61,6 +76,10 @@ class _Spec:
     above: float | None = None
     metavar: str | None = None
     flag: str | None = None
+    env: str | None = None
+    check: Callable[[Any], str] | None = None
+    const: Any = None
+    aliases: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -89,6 +108,9 @@ class Setting:
     metavar : str or None
     flag : str
         The command-line flag (``--refit-every``).
+    stage : str
+        The stage whose part holds it (``fit``), empty for a value of no stage (a
+        service's own).
     """
 
     name: str
@@ -101,6 +123,7 @@ class Setting:
     metavar: str | None
     flag: str
     spec: _Spec
+    stage: str = ""
 
     def problem(self, value: Any) -> str:
         """What is wrong with ``value`` for this setting (``""`` when nothing)."""
@@ -109,7 +132,9 @@ class Setting:
 
 def setting(default: Any, help: str, *, choices: typing.Sequence[Any] | None = None,
             low: float | None = None, high: float | None = None, above: float | None = None,
-            metavar: str | None = None, flag: str | None = None) -> Any:
+            metavar: str | None = None, flag: str | None = None, env: str | None = None,
+            check: Callable[[Any], str] | None = None, const: Any = None,
+            aliases: typing.Sequence[str] = ()) -> Any:
     """A field of a :class:`Settings` dataclass: its default, its help, what it accepts.
 
     Parameters
@@ -125,9 +150,17 @@ def setting(default: Any, help: str, *, choices: typing.Sequence[Any] | None = N
     metavar : str, optional
     flag : str, optional
         The command-line flag, when not ``--`` and the flat name with dashes.
+    env : str, optional
+        Environment variable read when the command line does not give the value.
+    check : callable, optional
+        ``check(value) -> problem`` (``""`` when fine), beyond the range and choices.
+    const : object, optional
+        The value of the flag given without one (the value is then optional).
+    aliases : sequence of str
+        Other flags that give the same value.
     """
     spec = _Spec(help, tuple(choices) if choices is not None else None, low, high, above,
-                 metavar, flag)
+                 metavar, flag, env, check, const, tuple(aliases))
     return dataclasses.field(default=default, metadata={"setting": spec})
 
 
@@ -138,6 +171,13 @@ def group(default: Settings, help: str, prefix: str = "") -> Any:
 
 
 def _problem(spec: _Spec, kind: type, optional: bool, value: Any) -> str:
+    problem = _kind_problem(spec, kind, optional, value)
+    if not problem and spec.check is not None:
+        problem = spec.check(value)
+    return problem
+
+
+def _kind_problem(spec: _Spec, kind: type, optional: bool, value: Any) -> str:
     if value is None:
         return "" if optional else "must be given"
     if kind is bool:
@@ -152,8 +192,9 @@ def _problem(spec: _Spec, kind: type, optional: bool, value: Any) -> str:
             return f"must be {'a whole number' if kind is int else 'a number'}{_bounds(spec)}"
         return ""
     if not isinstance(value, kind):
-        return f"must be a {kind.__name__}"
-    if spec.choices is not None and value not in spec.choices:
+        return f"must be a {'list' if kind is tuple else kind.__name__}"
+    if spec.choices is not None and any(v not in spec.choices for v in (
+            value if kind is tuple else (value,))):
         return f"choose one of {', '.join(map(str, spec.choices))}"
     return ""
 
@@ -167,24 +208,33 @@ def _bounds(spec: _Spec) -> str:
 
 
 def _kind(hint: Any) -> tuple[type, bool]:
-    """``(int, True)`` for ``int | None``."""
+    """``(int, True)`` for ``int | None``, ``(tuple, False)`` for ``tuple[str, ...]``."""
     if typing.get_origin(hint) in (typing.Union, types.UnionType):
         args = [a for a in typing.get_args(hint) if a is not type(None)]
-        return args[0], len(args) < len(typing.get_args(hint))
+        return _kind(args[0])[0], len(args) < len(typing.get_args(hint))
+    if typing.get_origin(hint) is tuple:
+        return tuple, False
     return hint, False
 
 
 @dataclass(frozen=True)
 class Settings:
-    """Base of a configuration dataclass: each :func:`setting` checked on construction."""
+    """Base of a configuration dataclass: each :func:`setting` checked on construction.
+
+    A stage's part of the options tree names its stage in :attr:`STAGE`: its values, and
+    those of the groups inside it, are that stage's (errors name it)."""
+
+    STAGE: ClassVar[str] = ""
 
     def __post_init__(self) -> None:
         hints = typing.get_type_hints(type(self))
         for f in dataclasses.fields(self):
             spec = f.metadata.get("setting")
             if spec is not None:
-                kind, optional = _kind(hints[f.name])
                 value = getattr(self, f.name)
+                if value is f.default:
+                    continue  # as declared (tests check every default): nothing to load
+                kind, optional = _kind(hints[f.name])
                 if isinstance(value, int) and not isinstance(value, bool) and kind is float:
                     value = float(value)  # an int given for a float: kept as one, then checked
                     object.__setattr__(self, f.name, value)
@@ -199,7 +249,7 @@ class Settings:
     def settings(cls) -> list[Setting]:
         """Every value, flattened, in declaration order, with its default (the value in
         ``cls()``: a group's default instance may differ from its class's defaults)."""
-        return _flatten(cls(), (), "")
+        return _flatten(cls(), (), "", cls.STAGE)
 
     @classmethod
     def setting(cls, name: str) -> Setting:
@@ -232,7 +282,9 @@ class Settings:
         for name in values:
             if name not in known:
                 close = difflib.get_close_matches(name, known, 1)
-                hint = f"; did you mean {close[0]}?" if close else ""
+                hint = (f"; did you mean {close[0]} ({known[close[0]].stage} stage)?"
+                        if close and known[close[0]].stage else
+                        f"; did you mean {close[0]}?" if close else "")
                 raise ConfigError(name, _NO_VALUE, f"unknown setting{hint}")
         return _rebuilt(self, {known[n].path: v for n, v in values.items()}, known)
 
@@ -241,21 +293,22 @@ class Settings:
         return dataclasses.replace(self, **changes)
 
 
-def _flatten(config: Any, path: tuple[str, ...], prefix: str) -> list[Setting]:
+def _flatten(config: Any, path: tuple[str, ...], prefix: str, stage: str) -> list[Setting]:
     hints = typing.get_type_hints(type(config))
     out = []
     for f in dataclasses.fields(config):
         name = f"{prefix}_{f.name}" if prefix else f.name
         if "group" in f.metadata:
-            inner = f.metadata["group"].prefix
-            out += _flatten(getattr(config, f.name), (*path, f.name),
-                            "_".join(p for p in (prefix, inner) if p))
+            inner = getattr(config, f.name)
+            out += _flatten(inner, (*path, f.name),
+                            "_".join(p for p in (prefix, f.metadata["group"].prefix) if p),
+                            stage or type(inner).STAGE)
         elif "setting" in f.metadata:
             spec: _Spec = f.metadata["setting"]
             kind, optional = _kind(hints[f.name])
             out.append(Setting(name, (*path, f.name), kind, optional, getattr(config, f.name),
                                spec.help, spec.choices, spec.metavar,
-                               spec.flag or "--" + name.replace("_", "-"), spec))
+                               spec.flag or "--" + name.replace("_", "-"), spec, stage))
     return out
 
 
@@ -270,5 +323,8 @@ def _rebuilt(config: Any, changes: dict[tuple[str, ...], Any], known: dict[str, 
     try:
         return dataclasses.replace(config, **mine)
     except ConfigError as exc:
-        by_path = {s.path: s.name for s in known.values()}
-        raise exc.renamed(by_path.get((*at, exc.field), exc.field or "")) from None
+        by_path = {s.path: s for s in known.values()}
+        found = by_path.get((*at, exc.field))
+        if found is None:
+            raise
+        raise exc.renamed(found.name, found.stage) from None

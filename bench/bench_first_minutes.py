@@ -105,13 +105,12 @@ def annotate_rows(video: Path, pairs: int) -> dict[str, list[float]]:
     figure (whole processes) and, in this process, of wall and of CPU time; and the frames
     OpenCV reads back from the annotated video."""
     from aamcore.annotate import Annotator
-    from aamcore.profiles import profile_named
+    from aamcore.profiles import classifier_path, model_path
     from aamcore.tracker import FaceTracker
 
-    profile = profile_named("default")
-    model = profile.model_path()
-    classifier = profile.classifier_path(model)
-    tracker = FaceTracker(model=model, classifier=classifier, smoothing=True)
+    model = model_path()
+    classifier = classifier_path(model)
+    tracker = FaceTracker(model=model, classifier=classifier)
     got: dict[str, list[float]] = {k: [] for k in (
         "command", "command+annotate", "wall", "wall+annotate", "cpu", "cpu+annotate")}
     with tempfile.TemporaryDirectory() as tmp, Annotator() as annotator:

@@ -181,7 +181,7 @@ def timing(model: FittingModel, photos, frames: int) -> list[tuple[int, float, f
             tracker.track(frame)
             seconds.append(time.perf_counter() - t0)
         whole = FaceTracker(model=model, classifier=False, max_faces=MAX_FACES,
-                            smoothing=False)
+                            landmark_smoothing=False, pose_smoothing=False)
         full = []
         for k, frame in enumerate(scene.frames):
             t0 = time.perf_counter()
@@ -223,13 +223,14 @@ def main(argv: list[str] | None = None) -> int:
                 paths = paths_of(kind, args.frames, rng)
                 scene = group_scene(chosen, paths, args.frames, seed=index)
                 tracker = FaceTracker(model=model, classifier=False, max_faces=MAX_FACES,
-                            smoothing=False)
+                            landmark_smoothing=False, pose_smoothing=False)
                 per_frame = [tracker.process_faces(f, k / 30)
                              for k, f in enumerate(scene.frames)]
                 alone = []
                 for i in range(len(chosen)):
                     solo = group_scene([chosen[i]], [paths[i]], args.frames, seed=index)
-                    one = FaceTracker(model=model, classifier=False, smoothing=False)
+                    one = FaceTracker(model=model, classifier=False,
+                                      landmark_smoothing=False, pose_smoothing=False)
                     present = ~np.isnan(scene.truths[:, i, 0, 0])
                     alone.append([one.process(f, k / 30) if present[k] else None
                                   for k, f in enumerate(solo.frames)])

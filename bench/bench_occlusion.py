@@ -182,7 +182,8 @@ def main(argv: list[str] | None = None) -> int:
     model = FittingModel.load(path)
     if model.occlusion is None:
         sys.exit(f"{path}: this model has no occlusion part: retrain it")
-    tracker = FaceTracker(model=model, classifier=False, smoothing=False)
+    tracker = FaceTracker(model=model, classifier=False,
+                          landmark_smoothing=False, pose_smoothing=False)
     report = model.occlusion.report
     seen, unseen = report.get("training", {}), report.get("threshold_views", {})
     print(f"model {Path(path).name}: occlusion test trained on {report.get('faces')} faces, "

@@ -97,7 +97,8 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--moving", type=int, default=3, help="moving sequences")
     args = parser.parse_args()
-    raw_tracker, smooth_tracker = (FaceTracker(classifier=False, smoothing=False),
+    raw_tracker, smooth_tracker = (FaceTracker(classifier=False,
+                                               landmark_smoothing=False, pose_smoothing=False),
                                      FaceTracker(classifier=False))
     print(f"{'sequence':<28}{'jitter px':>10}{'smoothed':>9}{'change':>8}{'NME':>8}"
           f"{'smoothed':>9}{'change':>8}{'yaw jit':>8}{'smoothed':>9}{'lag fr':>7}")

@@ -56,9 +56,10 @@ def expression_rows(model: Path, svm: bool, grid: str) -> None:
     variants = [variant_named(f"c, absolute, {name} (thesis)") for name in names]
     specs = thesis_specs(25, *SVM_GRIDS[grid])
     started = time.perf_counter()
-    faces = jaffe_faces(model, None, thesis.fitter)
+    faces = jaffe_faces(model, None, thesis.options.fit.fitting)
     bench = run_expression_benchmark(model, None, variants, (7, 5), specs, faces=faces)
-    print(f"thesis profile ({thesis.fitter.algorithm}, {thesis.fitter.failure_test}): JAFFE "
+    fitting = thesis.options.fit.fitting
+    print(f"thesis profile ({fitting.algorithm}, {fitting.failure_test}): JAFFE "
           f"faces fitted and classified in {time.perf_counter() - started:.0f} s")
     print(format_benchmark(bench))
     started = time.perf_counter()
@@ -93,10 +94,10 @@ def tracker_iterations(model: Path, profile: str, video: Path) -> list[int]:
     from aamcore.io.video import video_frames
 
     tracker = FaceTracker(model=model, profile=profile, classifier=False,
-                          smoothing=False)
+                          landmark_smoothing=False, pose_smoothing=False)
     out = []
     for frame in video_frames(video):
-        faces, _ = tracker.tracker.track(frame)
+        faces, _ = tracker.fit.tracker.track(frame)
         out += [face.fit.iterations for face in faces if isinstance(face.fit, AAMFit)]
     return out
 

@@ -102,14 +102,14 @@ def track(tracker: FaceTracker, frames: list[np.ndarray], fps: float) -> Track:
     """Track every frame from a fresh start, timing each."""
     tracker.reset()
     tracker.frames = 0
-    before = tracker.tracker.detections
+    before = tracker.fit.tracker.detections
     results: list[FaceResult] = []
     seconds = []
     for k, frame in enumerate(frames):
         t0 = time.perf_counter()
         results.append(tracker.process(frame, k / fps))
         seconds.append(time.perf_counter() - t0)
-    return track_of(results, np.array(seconds), tracker.tracker.detections - before)
+    return track_of(results, np.array(seconds), tracker.fit.tracker.detections - before)
 
 
 HEADER = (f"{'sequence':<32}{'frames':>7}{'good':>7}{'good out':>9}{'failed':>7}{'no face':>8}"
@@ -348,10 +348,11 @@ def main() -> int:
         scheme = model.aam.scheme
         if scheme.n_points != 68:
             raise SystemExit(f"{model_path}: {scheme.name} points; the sequences have iBUG-68")
-        tracker = FaceTracker(model=model, classifier=False, smoothing=False,
+        tracker = FaceTracker(model=model, classifier=False,
+                              landmark_smoothing=False, pose_smoothing=False,
                               algorithm=args.algorithm,
                               **({"refit": NEVER} if args.no_refit else {}))
-        print(f"{tracker.tracker.fitter.name} ({args.algorithm}), model {model_path.name} "
+        print(f"{tracker.fit.fitter.name} ({args.algorithm}), model {model_path.name} "
               f"({model.aam.summary.get('source', '?')}); OMP_NUM_THREADS="
               f"{os.environ.get('OMP_NUM_THREADS')}, one OpenCV thread")
         generated = generated_clips(model, args.per_set, args.frames, args.regenerate)
@@ -368,7 +369,7 @@ def main() -> int:
             results = verdicts(overall)
             for ok, line in results:
                 print(f"{'PASS' if ok else 'FAIL'}: {line}")
-        compare_parts(tracker.tracker.fitter, generated, nonrigid, args.schemes,
+        compare_parts(tracker.fit.fitter, generated, nonrigid, args.schemes,
                       scheme)
         if args.via_stack and not args.parts_only:
             via_stack(generated[: args.via_stack], tracks, model_path, args.algorithm, scheme)

@@ -105,7 +105,7 @@ def run_streams(bench: BenchFaces, model: str | Path, classifier: str | Path,
         for opening in openings:
             frames = stream_order(labels, members, opening)
             rng = np.random.default_rng(seed)
-            tracker = FaceTracker(model=model, classifier=classifier, smoothing=True,
+            tracker = FaceTracker(model=model, classifier=classifier,
                                   expression_hold=STACK_HOLD)
             other = ExpressionRecogniser(alone, hold=STACK_HOLD)
             for k, i in enumerate(frames):

@@ -3,7 +3,7 @@
 :class:`FitterConfig` (how a frame is fitted), :class:`Refit` (when a tracked frame is
 also fitted afresh) and :class:`NewFaces` (how several faces are looked for and keep
 their ids), with :class:`~aamcore.fitting.search.SearchSchedule`, are the fitting
-groups of :class:`~aamcore.tracker_config.TrackerConfig`, each value declared once with
+groups of :class:`~aamcore.operators.options.FitOptions`, each value declared once with
 its default and help (:func:`aamcore.settings.setting`). Light to import: option
 parsers read it.
 """

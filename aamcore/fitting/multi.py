@@ -1,11 +1,11 @@
 """Tracking every face in the frame, each under an id that stays while it is tracked.
 
-One face is the :class:`~aamcore.fitting.tracker.Tracker`'s case, and with
-``max_faces=1`` :class:`MultiTracker` is that tracker and nothing more. With more,
-each face has a tracker of its own that only follows it (no search), and one search
-for faces not yet tracked runs over the frame with the tracked faces blanked out:
-on the frame a face is lost, every :attr:`NewFaces.every` frames while fewer than
-``max_faces`` are tracked, and on the single tracker's schedule while none is.
+Each face has a :class:`~aamcore.fitting.tracker.Tracker` of its own that only follows it
+(no search), and one search for faces not yet tracked runs over the frame with the tracked
+faces blanked out: on the frame a face is lost, every :attr:`NewFaces.every` frames while
+fewer than ``max_faces`` are tracked, and on the search schedule while none is. One path
+for any number of faces: with ``max_faces=1`` it tracks as the single tracker does (the
+largest face found, its failed fit given back), under id 0.
 """
 
 from __future__ import annotations
@@ -85,7 +85,9 @@ class _Ids:
             policy.hidden_frames if g.hidden else policy.regain_frames)]
         return self.lost
 
-    def assign(self, fit: FitResult, frame: int) -> int:
+    def assign(self, fit: FitResult, frame: int, max_faces: int) -> int:
+        if max_faces == 1:  # one face at a time: the face, whoever it is
+            return 0
         self.alive(frame)
         centre = fit.points.mean(axis=0)
         near = [g for g in self.lost
@@ -153,8 +155,7 @@ class MultiTracker:
     detector : FaceDetector, optional
         Haar by default; shared by every face's search.
     max_faces : int
-        At most this many faces tracked (1: the single-face
-        :class:`~aamcore.fitting.tracker.Tracker`, unchanged).
+        At most this many faces tracked.
     search : SearchSchedule, optional
         Which frames are searched while no face is tracked.
     refit : Refit, optional
@@ -174,15 +175,15 @@ class MultiTracker:
         self.search = search or SearchSchedule()
         self.refit = refit
         self.new_faces = new_faces or NewFaces()
-        self.single = Tracker(fitter, self.detector, search, refit)
-        """The one face's tracker when ``max_faces`` is 1."""
         self.faces: list[_Face] = []
         self.ids = _Ids(self.new_faces)
         self.frame = -1
         self.size: tuple[int, ...] = ()
         self.misses = 0
         self.searches = 0
-        """Haar passes run by the search for new faces (``max_faces`` > 1)."""
+        """Haar passes run by the search for faces."""
+        self.detections = 0
+        """Frames on which a search ran."""
         self._due = 0
         self._roll = 0.0
         self._side = 1.0
@@ -190,25 +191,20 @@ class MultiTracker:
     @classmethod
     def configured(cls, fitter: Fitter, config: TrackingChoices,
                    detector: FaceDetector | None = None) -> MultiTracker:
-        """The tracker of a :class:`~aamcore.tracker_config.TrackerConfig`'s choices."""
+        """The tracker of a :class:`~aamcore.operators.options.FitOptions`' choices."""
         return cls(fitter, detector, config.max_faces, config.search, config.refit,
                    config.new_faces)
 
-    @property
-    def detections(self) -> int:
-        """Frames on which a search ran."""
-        return self.single.detections if self.max_faces == 1 else self.searches
-
     def reset(self) -> None:
         """Forget every face: the next frame starts from a search, and ids are not regained."""
-        self.single.reset()
         self.faces = []
         self.ids.forget()
         self.misses = 0
+        self._roll = 0.0
 
     def track(self, image: np.ndarray) -> tuple[list[TrackedFace], FitResult | None]:
-        """The good fits of the faces in ``image`` (by id), and a failed fit when there is
-        none (the single tracker's failed detection), else None.
+        """The good fits of the faces in ``image`` (by id), and when there is none the failed
+        fit of the largest face the search found (None if it found none).
 
         Raises
         ------
@@ -216,8 +212,6 @@ class MultiTracker:
             For something that is not an image array.
         """
         self.frame += 1
-        if self.max_faces == 1:
-            return self._track_one(image)
         if new_size(image, self.size):
             self.size = image.shape[:2]
             self.reset()
@@ -237,9 +231,9 @@ class MultiTracker:
             hidden = any(overlap(box, landmark_box(fit.points)) > 0 for _, fit in kept)
             self.ids.lose(face_id, before, self.frame, hidden)
         lost = bool(gone)
-        found = self._search(image, [fit for _, fit in kept], lost)
+        found, failed = self._search(image, [fit for _, fit in kept], lost)
         for fit in found:
-            face = _Face(self.ids.assign(fit, self.frame),
+            face = _Face(self.ids.assign(fit, self.frame, self.max_faces),
                          Tracker(self.fitter, self.detector, self.search, self.refit))
             face.tracker.adopt(fit, self.size)
             kept.append((face, fit))
@@ -248,14 +242,8 @@ class MultiTracker:
         if kept:
             self.misses = 0
             self._roll = roll_of(kept[0][1])
-        return [TrackedFace(face.face_id, fit) for face, fit in kept], None
-
-    def _track_one(self, image: np.ndarray) -> tuple[list[TrackedFace], FitResult | None]:
-        """The single tracker's fit; its one face at a time is always face 0."""
-        fit = self.single.track(image)
-        if fit is None or not fit.ok:
-            return [], fit
-        return [TrackedFace(0, fit)], None
+        return [TrackedFace(face.face_id, fit) for face, fit in kept], (
+            None if kept else failed)
 
     def _distinct(self, kept: list[tuple[_Face, FitResult]]) -> list[tuple[_Face, FitResult]]:
         """One fit per face: of two that overlap, the one that moved less stays (the other
@@ -271,15 +259,16 @@ class MultiTracker:
         return out
 
     def _search(self, image: np.ndarray, tracked: list[FitResult], lost: bool
-                ) -> list[FitResult]:
+                ) -> tuple[list[FitResult], FitResult | None]:
         """Good fits of faces not in ``tracked`` (at most ``max_faces`` in all), on the frames
-        the policy searches: around the faces lost lately, then over the whole frame."""
+        the policy searches: around the faces lost lately, then over the whole frame; and
+        the first failed fit of a face it found."""
         room = self.max_faces - len(tracked)
         if room <= 0:
-            return []
+            return [], None
         if tracked:
             angles = []
-            if lost:  # found again on the frame it is lost on, as the single tracker does
+            if lost:  # found again on the frame it is lost on, as a lone face is
                 angles = [0.0]
             elif self.frame % self.new_faces.every == 0:
                 # upright and turned in turn: a newcomer rolled past Haar's reach is found
@@ -291,35 +280,42 @@ class MultiTracker:
             angles = [0.0] * upright + [self._turn()] * turned
         near = [gone for gone in self.ids.alive(self.frame)
                 if (self.frame - gone.frame) % 2 == 1] if tracked and not lost else []
-        if not near and not angles:
-            if not tracked:
-                self.misses += 1
-            return []
-        grey = to_grey_uint8(image)  # only on the frames that search
+        self.detections += bool(near or angles)
+        found, failed = self._passes(image, tracked, near, angles, room)
+        if not tracked and not found:
+            self.misses += 1
+        return found, failed
+
+    def _passes(self, image: np.ndarray, tracked: list[FitResult], near: list[_Lost],
+                angles: list[float], room: int) -> tuple[list[FitResult], FitResult | None]:
+        """The search's Haar passes: around each face lost lately, then in the frame turned
+        by each angle until one finds a face."""
+        grey = to_grey_uint8(image) if tracked or any(angles) else None
         found: list[FitResult] = []
+        failed = None
         for gone in near:  # every second frame
             self.searches += 1
             found += self._new(self._fits_near(image, grey, gone, tracked + found),
                                tracked + found, room - len(found))
             if len(found) >= room:
-                return found
+                return found, None
         for angle in angles:
             self.searches += 1
             taken = tracked + found
-            found += self._new(self._fits(image, blanked(grey, taken), angle, taken), taken,
-                               room - len(found))
+            fits = self._fits(image, grey, angle, taken, room - len(found))
+            failed = failed or next((fit for fit in fits if not fit.ok), None)
+            found += self._new(fits, taken, room - len(found))
             if found:
                 break
-        if not tracked and not found:
-            self.misses += 1
-        return found
+        return found, failed
 
     def _new(self, fits: list[FitResult], taken: list[FitResult], room: int) -> list[FitResult]:
-        """The first ``room`` of ``fits`` that are none of ``taken`` nor of each other."""
+        """The first ``room`` good fits of ``fits`` that are none of ``taken`` nor of each
+        other."""
         out: list[FitResult] = []
         for fit in fits:
             box = landmark_box(fit.points)
-            if len(out) < room and all(
+            if fit.ok and len(out) < room and all(
                     overlap(box, landmark_box(other.points)) <= self.new_faces.overlap
                     for other in taken + out):
                 out.append(fit)
@@ -338,26 +334,38 @@ class MultiTracker:
                 out.append(box)
         return out
 
-    def _fits(self, image: np.ndarray, grey: np.ndarray, angle: float,
-              taken: list[FitResult]) -> list[FitResult]:
-        """The good fits of the faces Haar finds in ``grey`` turned by ``-angle``, largest
-        first."""
+    def _fits(self, image: np.ndarray, grey: np.ndarray | None, angle: float,
+              taken: list[FitResult], room: int) -> list[FitResult]:
+        """The fits of the faces Haar finds in the frame turned by ``-angle`` (the faces of
+        ``taken`` blanked out), largest first, until ``room`` are good or as many failed."""
         if angle == 0.0:
-            fits = [self.fitter.fit_box(image, box) for box in self._boxes(grey, taken)]
-        else:
-            view, to_view = rotated_view(image, angle)
-            turned = [mapped(fit, to_view) for fit in taken]
-            boxes = self._boxes(rotated_view(grey, angle)[0], turned)
-            if not boxes:
-                return []
-            back = to_view.inverse()
-            fits = [mapped(self.fitter.fit_box(view, box), back) for box in boxes]
-        return [fit for fit in fits if fit.ok]
+            # nothing to blank: the frame itself is searched (a detector service is asked
+            # about the frame it was sent, not a copy)
+            searched = image if not taken else blanked(grey, taken)  # type: ignore[arg-type]
+            return self._fitted(image, self._boxes(searched, taken), room)
+        view, to_view = rotated_view(image, angle)
+        turned = [mapped(fit, to_view) for fit in taken]
+        boxes = self._boxes(rotated_view(grey, angle)[0], turned)  # type: ignore[arg-type]
+        if not boxes:
+            return []
+        back = to_view.inverse()
+        return [mapped(fit, back) for fit in self._fitted(view, boxes, room)]
 
-    def _fits_near(self, image: np.ndarray, grey: np.ndarray, gone: _Lost,
+    def _fitted(self, image: np.ndarray, boxes: list[np.ndarray], room: int
+                ) -> list[FitResult]:
+        """The fits of ``boxes`` in order, until ``room`` are good or as many failed."""
+        fits: list[FitResult] = []
+        for box in boxes:
+            fits.append(self.fitter.fit_box(image, box))
+            if sum(f.ok for f in fits) >= room or sum(not f.ok for f in fits) >= room:
+                break
+        return fits
+
+    def _fits_near(self, image: np.ndarray, grey: np.ndarray | None, gone: _Lost,
                    taken: list[FitResult]) -> list[FitResult]:
         """The good fits of the faces Haar finds around where ``gone`` was lost (a window of
         three of its widths), with the faces of ``taken`` blanked out."""
+        assert grey is not None
         h, w = grey.shape[:2]
         half = 1.5 * gone.width
         x0, x1 = int(max(0, gone.centre[0] - half)), int(min(w, gone.centre[0] + half))

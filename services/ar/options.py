@@ -1,18 +1,20 @@
-"""The glasses AR service's options (see :mod:`services.bus.options`)."""
+"""The glasses AR service's options: the overlay stage's part of the options tree."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from aamcore.operators.options import OverlayOptions
+from aamcore.settings import group
 from services.bus.options import Options, in_range, option
 
 
 @dataclass(frozen=True)
 class AROptions(Options):
-    """How overlays are drawn and sent."""
+    """The overlay stage, and how overlays are sent."""
 
+    overlay: OverlayOptions = group(OverlayOptions(), "the overlay stage", "overlay")
     jpeg: int = option(0, "publish overlays as JPEG of quality Q (0: raw)", metavar="Q",
                        check=in_range(0, 100))
-    all_poses: bool = option(False, "draw unreliable poses too")
     capacity: int = option(2, "latest poses kept while busy", check=in_range(1, 1024))
     backend: str = option("egl", "moderngl standalone backend")

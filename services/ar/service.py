@@ -1,13 +1,14 @@
-"""The glasses AR service: draws 3D glasses on each frame with its head pose (thesis ch. 15).
+"""The glasses AR service: a thin adapter around the overlay stage's operator
+(:class:`aamcore.operators.overlay.OverlayOperator`), 3D glasses on each frame at its head
+pose (thesis ch. 15).
 
 ``aamtrack service ar [--jpeg Q] [--all-poses]``
 
 For each reliable ``HeadPose`` the service takes the frame it belongs to
 (the latest few frames are kept; with several faces, the frame as drawn for its
 faces so far, so that each overlay of a frame has the glasses of every face
-drawn before it and the last has them all), renders the glasses with
-:class:`~aamcore.ar.renderer.GlassesRenderer` at the pose and intrinsics of
-the message, with the head hiding what lies behind it, and publishes the
+drawn before it and the last has them all), renders the glasses at the pose and
+intrinsics of the message, with the head hiding what lies behind it, and publishes the
 result as an ``Overlay`` (raw, or JPEG with ``--jpeg``). The OpenGL (EGL)
 context is created in the thread that renders, the service's main thread. A
 pose whose frame is no longer kept is counted as dropped.
@@ -21,13 +22,14 @@ import cv2
 import moderngl
 import numpy as np
 
-from aamcore.ar.renderer import GlassesRenderer
+from aamcore.operators.overlay import OverlayOperator
 from proto import Frame, HeadPose, Overlay, ProtoError
 from services.ar.options import AROptions
 from services.bus.args import parse_service_args
 from services.bus.images import image_of
 from services.bus.process import init_process
 from services.bus.session import Service
+from services.messages import pose_of
 
 NAME = "ar"
 FRAMES_KEPT = 8
@@ -41,26 +43,6 @@ def bgr_image(frame: Frame) -> np.ndarray:
     if image.ndim == 2:
         return cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
     return np.ascontiguousarray(image)
-
-
-class Compositor:
-    """Renderers per frame size, all in the GL context of the calling thread."""
-
-    def __init__(self, ctx: moderngl.Context) -> None:
-        self.ctx = ctx
-        self._renderers: dict[tuple[int, int], GlassesRenderer] = {}
-
-    def render(self, image: np.ndarray, pose: HeadPose) -> np.ndarray:
-        h, w = image.shape[:2]
-        renderer = self._renderers.get((w, h))
-        if renderer is None:
-            renderer = self._renderers[(w, h)] = GlassesRenderer(w, h, self.ctx)
-        return renderer.render(image, pose.rotation, pose.translation_mm, pose.intrinsics)
-
-    def release(self) -> None:
-        for renderer in self._renderers.values():
-            renderer.release()
-        self._renderers.clear()
 
 
 def overlay_message(svc: Service, pose: HeadPose, image: np.ndarray, jpeg: int) -> Overlay:
@@ -92,7 +74,7 @@ class Drawn:
         self.key, self.image = (pose.header.run_id, pose.header.frame_index), image
 
 
-def draw(svc: Service, compositor: Compositor, pose: HeadPose, frame: Frame, jpeg: int,
+def draw(svc: Service, op: OverlayOperator, pose: HeadPose, frame: Frame, jpeg: int,
          drawn: Drawn | None = None) -> Overlay:
     """The overlay of ``frame`` at ``pose`` (over the frame's other faces in ``drawn``).
 
@@ -105,23 +87,23 @@ def draw(svc: Service, compositor: Compositor, pose: HeadPose, frame: Frame, jpe
     if (pose.image_width, pose.image_height) != (image.shape[1], image.shape[0]):
         raise ProtoError(f"pose for a {pose.image_width} x {pose.image_height} image, "
                          f"frame is {image.shape[1]} x {image.shape[0]}")
-    rendered = compositor.render(image, pose)
+    rendered = op(image, [pose_of(pose)])
     if drawn is not None:
         drawn.keep(pose, rendered)
     return overlay_message(svc, pose, rendered, jpeg)
 
 
-def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
+def serve(svc: Service, op: OverlayOperator, opts: AROptions) -> None:
     """Render overlays until stopped."""
     frames = svc.recent("frame", FRAMES_KEPT)
     unreliable = without_frame = 0
     drawn = Drawn()
     poses = svc.messages("pose", capacity=opts.capacity)
-    svc.ready(f"renderer {compositor.ctx.info.get('GL_RENDERER', '?')}")
+    svc.ready(f"renderer {op.ctx.info.get('GL_RENDERER', '?')}")
     for got in poses:
         pose = got.message
         assert isinstance(pose, HeadPose)
-        if not (pose.reliable or opts.all_poses):
+        if not op.draws(pose_of(pose)):
             unreliable += 1
         # The frame and its pose come from different publishers: the pose may come first.
         elif (frame := frames.take(pose.header.run_id, pose.header.frame_index,
@@ -131,7 +113,7 @@ def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
         else:
             with svc.answering(f"pose {pose.header.frame_index}"):
                 try:
-                    svc.publish(draw(svc, compositor, pose, frame.message, opts.jpeg, drawn))
+                    svc.publish(draw(svc, op, pose, frame.message, opts.jpeg, drawn))
                 except (ProtoError, ValueError) as exc:
                     svc.reject("pose", f"no overlay: {exc}")
         svc.set_state("running", f"{svc.stats.frames_out} overlays drawn; not drawn: "
@@ -149,12 +131,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:  # moderngl raises plain Exception when no context can be made
         log.error("no OpenGL context (backend %s): %s", args.options.backend, exc)
         return 1
-    compositor = Compositor(ctx)
+    op = OverlayOperator(args.options.overlay, ctx)
     try:
         with Service(NAME, args.bus) as svc:
-            serve(svc, compositor, args.options)
+            serve(svc, op, args.options)
     finally:
-        compositor.release()
+        op.close()
         ctx.release()
     return 0
 

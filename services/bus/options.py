@@ -1,106 +1,79 @@
-"""Options as dataclasses: one declaration gives the parser, the checked values and the argv.
+"""Options on the command line and in files: the one option mechanism's doors.
 
-A service declares its options once, as fields of an :class:`Options`
-dataclass made with :func:`option` (default, help, choices, range check,
-environment variable). From that one declaration
+Every option, of the pipeline (:mod:`aamcore.operators.options`, a part per stage) or of a
+service process (its Zenoh queue, its bus), is a value of a frozen dataclass declared
+with :func:`aamcore.settings.setting` (here :func:`option`, the same with a check function
+and an environment variable) or a part of one (:func:`aamcore.settings.group`): one
+declaration gives the default, the help, the checks and the flag. From it
 
-- :func:`add_options` adds them to an ``argparse`` parser,
-- :func:`options_from` builds the checked dataclass from parsed arguments
-  (the environment fills what the command line leaves out), and
-- :func:`options_argv` turns a dataclass back into the command line that
-  gives it, which is how the launcher starts a service with its options.
+- :func:`add_options` adds the values to an ``argparse`` parser (a group per stage with
+  ``by_stage``),
+- :func:`options_from` builds the checked dataclass from parsed arguments (the
+  environment fills what the command line leaves out) over a base (a profile's, a stack
+  file's),
+- :func:`options_argv` turns a dataclass back into the command line that gives it, which
+  is how the launcher starts a service with its options, and
+- :func:`options_of_mapping` reads a stack file's table.
 
-A value out of range raises :class:`OptionError` naming the option, before
-any process starts.
-
-A field made with :func:`settings_option` holds a whole configuration (a
-:class:`aamcore.settings.Settings` dataclass, such as the tracker's): each of its
-values is an option of its own (its flag, help, default and check come from the
-configuration's declaration), and the field is rebuilt from them, so that the
-configuration's own checks (two values that contradict each other) run too. This
-module reads such a configuration through its methods only (``settings()``,
-``values()``, ``with_values()``): the bus layer imports no algorithm.
+A value out of range, or unknown, raises :class:`OptionError` naming the option by its
+flag and its stage, before any process starts. This module imports no algorithm.
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import difflib
 import math
 import os
-import types
-import typing
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Self
+from typing import Any
+
+from aamcore.settings import NO_VALUE, ConfigError, Setting, Settings, setting
 
 Check = Callable[[Any], str]
 """Returns what is wrong with a value, or ``""``."""
 
 
-class OptionError(ValueError):
-    """An option's value is not acceptable; the message names the option.
+class OptionError(ConfigError):
+    """An option's value is not acceptable; the message names the option (and its stage).
 
     Attributes
     ----------
     option : str or None
-        The field name of the option, when one option is at fault.
+        The flat name of the option, when one option is at fault.
     """
 
-    def __init__(self, message: str, option: str | None = None) -> None:
-        super().__init__(message)
-        self.option = option
+    def __init__(self, message: str, option: str | None = None, stage: str = "",
+                 cause: ConfigError | None = None) -> None:
+        ValueError.__init__(self, message)
+        self.field = self.option = option
+        self.value, self.problem, self.stage = NO_VALUE, message, stage
+        self.cause = cause
+        """The configuration's error this one shows (None: a message of its own)."""
+
+    @classmethod
+    def of(cls, exc: ConfigError, flag: str | None = None, where: str = "") -> OptionError:
+        """``exc`` naming its option by ``flag``, after ``where`` (a stack file's table)."""
+        cause = exc.cause if isinstance(exc, OptionError) else exc
+        if cause is None:
+            return cls(where + str(exc), exc.field, exc.stage)
+        shown = ConfigError(cause.field, cause.value, cause.problem, cause.stage, flag)
+        return cls(where + str(shown), cause.field, cause.stage, cause)
+
+    def renamed(self, field: str, stage: str = "") -> ConfigError:
+        """The configuration's error, renamed (an error of its own message stays)."""
+        return self if self.cause is None else self.cause.renamed(field, stage)
 
 
-@dataclass(frozen=True)
-class _Meta:
-    help: str
-    choices: tuple[Any, ...] | None
-    metavar: str | None
-    env: str | None
-    check: Check | None
-    flag: str | None
-    const: Any = None
-    aliases: tuple[str, ...] = ()
-
-
-def option(
-    default: Any,
-    help: str,
-    *,
-    choices: Sequence[Any] | None = None,
-    metavar: str | None = None,
-    env: str | None = None,
-    check: Check | None = None,
-    flag: str | None = None,
-    const: Any = None,
-    aliases: Sequence[str] = (),
-) -> Any:
-    """A dataclass field that is also a command-line option ``--name-with-dashes``.
-
-    Parameters
-    ----------
-    default : object
-        Immutable default (tuples for lists).
-    help : str
-    choices : sequence, optional
-    metavar : str, optional
-    env : str, optional
-        Environment variable read when the command line does not give the option.
-    check : callable, optional
-        ``check(value) -> problem`` (``""`` when fine).
-    flag : str, optional
-        The flag, when not ``--`` and the field name with dashes.
-    const : object, optional
-        The value of the flag given without one (the value is then optional);
-        for options that take a value (not booleans or lists).
-    aliases : sequence of str
-        Other flags that give the same option (e.g. ``--save`` for ``--rrd``).
-    """
-    meta = _Meta(help, tuple(choices) if choices is not None else None, metavar, env, check, flag,
-                 const, tuple(aliases))
-    return dataclasses.field(default=default, metadata={"option": meta})
+def option(default: Any, help: str, *, choices: Sequence[Any] | None = None,
+           metavar: str | None = None, env: str | None = None, check: Check | None = None,
+           flag: str | None = None, const: Any = None, aliases: Sequence[str] = ()) -> Any:
+    """A value of a service's options (:func:`aamcore.settings.setting`): ``env`` is read
+    when the command line does not give it, ``check(value)`` says what is wrong with a
+    value, ``const`` is the value of the flag given alone, ``aliases`` other flags."""
+    return setting(default, help, choices=choices, metavar=metavar, flag=flag, env=env,
+                   check=check, const=const, aliases=aliases)
 
 
 def in_range(low: float, high: float = math.inf) -> Check:
@@ -117,127 +90,70 @@ def in_range(low: float, high: float = math.inf) -> Check:
     return check
 
 
-def setting_option(setting: Any, **changes: Any) -> Any:
-    """An option field made of one value of a configuration (an
-    :class:`aamcore.settings.Setting`: its default, help, choices and check), for a service
-    that takes that one value under its own name; ``changes`` (``metavar``, ``flag``) go
-    over it."""
-    made = {"help": setting.help, "choices": setting.choices, "metavar": setting.metavar,
-            "check": setting.problem, **changes}
-    return option(setting.default, **made)
-
-
 @dataclass(frozen=True)
-class _Group:
-    without: tuple[str, ...]
-
-
-def settings_option(default: Any, without: Sequence[str] = ()) -> Any:
-    """A dataclass field holding a whole configuration (``default``, a
-    :class:`aamcore.settings.Settings`), each of its values (but those named in
-    ``without``, by flat name) an option of its own."""
-    return dataclasses.field(default=default, metadata={"settings": _Group(tuple(without))})
-
-
-@dataclass(frozen=True)
-class _Entry:
-    """One option: a field of its own, or a value of a configuration field (``group``)."""
-
-    name: str
-    kind: type
-    meta: _Meta
-    default: Any
-    group: str | None = None
-
-
-def _entries(cls: type[Options], only: Sequence[str] | None = None) -> list[_Entry]:
-    """Every option of ``cls`` (those named in ``only``: a configuration's values by their
-    flat names, or all of them by the field's name)."""
-    hints = typing.get_type_hints(cls)
-    out = []
-    for f in dataclasses.fields(cls):
-        if "option" in f.metadata and (only is None or f.name in only):
-            out.append(_Entry(f.name, _base_type(hints[f.name]), f.metadata["option"],
-                              f.default))
-        elif "settings" in f.metadata:
-            skip = f.metadata["settings"].without
-            for s in f.default.settings():
-                if s.name not in skip and (only is None or f.name in only or s.name in only):
-                    meta = _Meta(s.help, s.choices, s.metavar, None, None, s.flag)
-                    out.append(_Entry(s.name, s.kind, meta, s.default, f.name))
-    return out
-
-
-@dataclass(frozen=True)
-class Options:
-    """Base of every options dataclass: checks each field on construction."""
+class Options(Settings):
+    """Base of a service's options: checked on construction, errors naming the flag."""
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            meta: _Meta | None = f.metadata.get("option")
-            if meta is None:
-                continue
-            value = getattr(self, f.name)
-            if meta.choices is not None and value is not None and value not in meta.choices:
-                raise OptionError(f"{flag_of(f)} {value!r}: choose one of "
-                                  f"{', '.join(map(str, meta.choices))}", f.name)
-            problem = meta.check(value) if meta.check else ""
-            if problem:
-                raise OptionError(f"{flag_of(f)} {value!r}: {problem}", f.name)
-
-    def replace(self, **changes: Any) -> Self:
-        """A copy with ``changes``, checked again."""
-        return dataclasses.replace(self, **changes)
+        try:
+            super().__post_init__()
+        except OptionError:
+            raise
+        except ConfigError as exc:
+            known = {s.name: s.flag for s in self.settings()}
+            raise OptionError.of(exc, known.get(exc.field or "")) from None
 
 
-def flag_of(f: dataclasses.Field | _Entry) -> str:
-    """The command-line flag of an option field (or entry)."""
-    meta: _Meta = f.meta if isinstance(f, _Entry) else f.metadata["option"]
-    return meta.flag or "--" + f.name.replace("_", "-")
+def _entries(cls: type[Settings], only: Sequence[str] | None = None) -> list[Setting]:
+    """The values of ``cls`` (those named in ``only``: by flat name, or a part's field)."""
+    return [s for s in cls.settings()
+            if only is None or s.name in only or s.path[0] in only]
 
 
-def _base_type(hint: Any) -> type:
-    """``int`` for ``int | None``, ``tuple`` for ``tuple[str, ...]``, else the hint."""
-    origin = typing.get_origin(hint)
-    if origin in (typing.Union, types.UnionType):
-        args = [a for a in typing.get_args(hint) if a is not type(None)]
-        return _base_type(args[0])
-    if origin is tuple:
-        return tuple
-    return hint
+def flag_of(s: Setting) -> str:
+    """The command-line flag of a value."""
+    return s.flag
 
 
-def add_options(
-    parser: argparse.ArgumentParser | Any,
-    cls: type[Options],
-    only: Sequence[str] | None = None,
-    flags: Mapping[str, Sequence[str]] | None = None,
-) -> None:
-    """Add the options of ``cls`` (those named in ``only``) to ``parser`` or an argument group.
+def _help(s: Setting) -> str:
+    text = s.help
+    if s.default not in (None, (), False, ""):
+        text += f" (default {s.default})"
+    if s.spec.const is not None:
+        text += f" (without a value: {s.spec.const})"
+    if s.spec.env:
+        text += f" [env {s.spec.env}]"
+    return text
 
-    ``flags`` gives some options other flags than their own (and their
-    aliases), by field name: ``{"viewer": ("--connect",)}``.
+
+def add_options(parser: argparse.ArgumentParser | Any, cls: type[Settings],
+                only: Sequence[str] | None = None,
+                flags: Mapping[str, Sequence[str]] | None = None, by_stage: bool = False
+                ) -> None:
+    """Add the values of ``cls`` (those named in ``only``) to ``parser`` or an argument group;
+    with ``by_stage``, each stage's in a group of its own (``fit options``).
+
+    ``flags`` gives some options other flags than their own (and their aliases), by flat
+    name: ``{"viewer": ("--connect",)}``.
     """
-    for f in _entries(cls, only):
-        kind, meta = f.kind, f.meta
-        text = meta.help
-        if f.default not in (None, (), False, ""):
-            text += f" (default {f.default})"
-        if meta.const is not None:
-            text += f" (without a value: {meta.const})"
-        if meta.env:
-            text += f" [env {meta.env}]"
-        kwargs: dict[str, Any] = {"dest": f.name, "default": None, "help": text}
-        if kind is bool:
+    groups: dict[str, Any] = {}
+    for s in _entries(cls, only):
+        where = parser
+        if by_stage and s.stage:
+            if s.stage not in groups:
+                groups[s.stage] = parser.add_argument_group(f"{s.stage} options")
+            where = groups[s.stage]
+        kwargs: dict[str, Any] = {"dest": s.name, "default": None, "help": _help(s)}
+        if s.kind is bool:
             kwargs["action"] = argparse.BooleanOptionalAction
-        elif kind is tuple:
-            kwargs.update(action="extend", type=_comma_list, metavar=meta.metavar or "VALUE")
+        elif s.kind is tuple:
+            kwargs.update(action="extend", type=_comma_list, metavar=s.metavar or "VALUE")
         else:
-            kwargs.update(type=kind, metavar=meta.metavar, choices=meta.choices)
-            if meta.const is not None:
-                kwargs.update(nargs="?", const=meta.const)
-        names = (flags or {}).get(f.name) or (flag_of(f), *meta.aliases)
-        parser.add_argument(*names, **kwargs)
+            kwargs.update(type=s.kind, metavar=s.metavar, choices=s.choices)
+            if s.spec.const is not None:
+                kwargs.update(nargs="?", const=s.spec.const)
+        names = (flags or {}).get(s.name) or (s.flag, *s.spec.aliases)
+        where.add_argument(*names, **kwargs)
 
 
 def _comma_list(text: str) -> list[str]:
@@ -259,131 +175,86 @@ def _from_env(name: str, kind: type) -> Any:
         raise OptionError(f"environment variable {name}={text!r}: {exc}") from None
 
 
-def options_from(
-    cls: type[Options],
-    args: argparse.Namespace | None = None,
-    only: Sequence[str] | None = None,
-    base: Options | None = None,
-    flags: Mapping[str, Sequence[str]] | None = None,
-    **given: Any,
-) -> Any:
+def options_from(cls: type[Settings], args: argparse.Namespace | None = None,
+                 only: Sequence[str] | None = None, base: Settings | None = None,
+                 flags: Mapping[str, Sequence[str]] | None = None, **given: Any) -> Any:
     """Build ``cls`` from parsed arguments, then the environment, then ``base`` or the defaults.
 
-    Only the options named in ``only`` are read from ``args``; keyword
-    arguments override everything. ``flags``, as given to :func:`add_options`,
-    names an option at fault by the flag it was given with.
+    Only the values named in ``only`` are read from ``args``; keyword arguments (flat
+    names, or a part whole by its field's name) override everything. ``flags``, as given
+    to :func:`add_options`, names an option at fault by the flag it was given with.
 
     Raises
     ------
     OptionError
     """
-    values = _shallow(base) if base is not None else {}
-    groups: dict[str, dict[str, Any]] = {}
-    for f in _entries(cls, only):
-        value = getattr(args, f.name, None) if args is not None else None
-        if value is None and f.meta.env:
-            value = _from_env(f.meta.env, f.kind)
+    values: dict[str, Any] = {}
+    for s in _entries(cls, only):
+        value = getattr(args, s.name, None) if args is not None else None
+        if value is None and s.spec.env:
+            value = _from_env(s.spec.env, s.kind)
         if value is not None:
-            value = tuple(value) if f.kind is tuple else value
-            if f.group is None:
-                values[f.name] = value
-            else:
-                groups.setdefault(f.group, {})[f.name] = value
+            values[s.name] = tuple(value) if s.kind is tuple else value
     values.update(given)
+    return _with_values(base if base is not None else cls(), values, flags)
+
+
+def _with_values(base: Settings, values: dict[str, Any],
+                 flags: Mapping[str, Sequence[str]] | None = None, where: str = "") -> Any:
     try:
-        values.update(_regrouped(cls, values, groups))
-        return cls(**values)
-    except OptionError as exc:
-        names = (flags or {}).get(exc.option or "")
-        if not names:
-            raise
-        own = flag_of(next(e for e in _entries(cls) if e.name == exc.option))
-        raise OptionError(names[0] + str(exc).removeprefix(own), exc.option) from None
+        return base.with_values(**values)
+    except ConfigError as exc:
+        names = (flags or {}).get(exc.field or "")
+        flag = names[0] if names else next(
+            (s.flag for s in base.settings() if s.name == exc.field), None)
+        raise OptionError.of(exc, flag, where) from None
 
 
-def _shallow(opts: Options) -> dict[str, Any]:
-    """The fields of ``opts`` by name (a configuration field as it is)."""
-    return {f.name: getattr(opts, f.name) for f in dataclasses.fields(opts)}
-
-
-def _regrouped(cls: type[Options], values: dict[str, Any], groups: dict[str, dict[str, Any]],
-               where: str = "") -> dict[str, Any]:
-    """Each configuration field of ``cls`` with the values given for it (by flat name).
-
-    Raises
-    ------
-    OptionError
-        Naming the value at fault by its flag (after ``where``: a stack file's table).
-    """
-    out = {}
-    for name, given in groups.items():
-        default = next(f.default for f in dataclasses.fields(cls) if f.name == name)
-        try:
-            out[name] = values.get(name, default).with_values(**given)
-        except ValueError as exc:  # the configuration's ConfigError, read by its attributes
-            field = getattr(exc, "field", None)
-            if field is None:
-                raise OptionError(f"{where}{exc}") from None
-            flag = next((flag_of(e) for e in _entries(cls) if e.name == field), field)
-            raise OptionError(f"{where}{flag} {exc.value!r}: {exc.problem}", field) from None
-    return out
-
-
-def options_argv(opts: Options) -> list[str]:
+def options_argv(opts: Settings) -> list[str]:
     """The command-line arguments giving ``opts`` back (only values other than the defaults)."""
     argv: list[str] = []
-    for f in _entries(type(opts)):
-        kind = f.kind
-        value = (getattr(opts, f.group).values()[f.name] if f.group is not None
-                 else getattr(opts, f.name))
-        if value == f.default or value is None:
+    for s in type(opts).settings():
+        value = opts.get(s.path)
+        if value == s.default or value is None:
             continue
-        flag = flag_of(f)
-        if kind is bool:
-            argv.append(flag if value else "--no-" + flag[2:])
-        elif kind is tuple:
+        if s.kind is bool:
+            argv.append(s.flag if value else "--no-" + s.flag[2:])
+        elif s.kind is tuple:
             for item in value:
-                argv += [flag, str(item)]
+                argv += [s.flag, str(item)]
         else:
-            argv += [flag, str(value)]
+            argv += [s.flag, str(value)]
     return argv
 
 
-def options_of_mapping(cls: type[Options], data: dict[str, Any], where: str) -> Any:
-    """Build ``cls`` from a mapping of field names (a stack file's table).
+def options_of_mapping(cls: type[Settings], data: dict[str, Any], where: str,
+                       base: Settings | None = None) -> Any:
+    """Build ``cls`` (over ``base``) from a mapping of flat names or flags without their
+    dashes (a stack file's table).
 
     Raises
     ------
     OptionError
         Naming ``where`` for an unknown key or a value of the wrong type.
     """
-    entries = {e.name: e for e in _entries(cls)}
-    entries |= {flag_of(e)[2:].replace("-", "_"): e for e in entries.values()
-                if flag_of(e).startswith("--")}  # a value may be named by its flag too
+    entries = {s.name: s for s in cls.settings()}
+    entries |= {s.flag[2:].replace("-", "_"): s for s in entries.values()}
     values: dict[str, Any] = {}
-    groups: dict[str, dict[str, Any]] = {}
     for key, value in data.items():
         name = key.replace("-", "_")
         if name not in entries:
             close = difflib.get_close_matches(name, entries, 1)
             hint = f"did you mean {close[0].replace('_', '-')}? " if close else ""
             raise OptionError(f"{where}: unknown option {key!r}; {hint}options are "
-                              f"{', '.join(sorted({e.name for e in entries.values()}))}",
+                              f"{', '.join(sorted({s.name for s in entries.values()}))}",
                               name)
-        kind = entries[name].kind
-        if kind is tuple:
+        s = entries[name]
+        if s.kind is tuple:
             value = tuple(value) if isinstance(value, list) else (value,)
-        elif kind is float and isinstance(value, int) and not isinstance(value, bool):
+        elif s.kind is float and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
-        elif not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-            raise OptionError(f"{where}: {key} = {value!r} is not a {kind.__name__}", name)
-        entry = entries[name]
-        if entry.group is None:
-            values[entry.name] = value
-        else:
-            groups.setdefault(entry.group, {})[entry.name] = value
-    values.update(_regrouped(cls, values, groups, f"{where}: "))
-    try:
-        return cls(**values)
-    except OptionError as exc:
-        raise OptionError(f"{where}: {exc}", exc.option) from None
+        elif not isinstance(value, s.kind) or (s.kind is int and isinstance(value, bool)):
+            raise OptionError(f"{where}: {key} = {value!r} is not a {s.kind.__name__}", s.name,
+                              s.stage)
+        values[s.name] = value
+    return _with_values(base if base is not None else cls(), values, where=f"{where}: ")

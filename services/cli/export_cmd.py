@@ -6,7 +6,7 @@
 - ``aamtrack track VIDEO --csv OUT.csv``: the same rows straight from a
   video through the Python API (:class:`aamcore.tracker.FaceTracker`), no bus,
   with the default profile's expressions (``--no-expression``: none) and every option of
-  the tracker's configuration (:mod:`services.cli.track_options`); with
+  the options tree (:mod:`services.cli.track_options`); with
   ``--max-faces N``, one row per face per frame.
 
 Rows are written as they come: whatever was exported before a damaged record
@@ -156,7 +156,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     from services.cli.track_options import track_options
 
     try:
-        opts = track_options(args)
+        _, options = track_options(args)
     except OptionError as exc:
         return _fail("track", str(exc), 2)
     if problem := video_problem(args.video):
@@ -166,9 +166,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     from aamcore.tracker import FaceTracker
 
     try:
-        tracker = FaceTracker(opts.tracking, model=opts.model, profile=opts.profile,
-                              classifier=opts.classifier if opts.expression else False,
-                              camera=opts.calibration or opts.fov)
+        tracker = FaceTracker(options)
     except (ModelFileError, OSError, ValueError) as exc:
         return _fail("track", str(exc), 2)
     expected = video_facts(args.video)[0]

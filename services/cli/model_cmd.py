@@ -90,25 +90,22 @@ def print_summary(header: dict[str, Any], path: Path) -> None:
 
 def run_prepare(args: argparse.Namespace) -> int:
     """Train (or find in the cache) the models ``aamtrack run --profile P`` uses."""
-    from dataclasses import replace
+    from aamcore.profiles import classifier_path, model_path, profile_named
+    from aamcore.settings import ConfigError
 
-    from aamcore import defaults
-    from aamcore.fitting.algorithm import ALGORITHMS
-    from aamcore.profiles import profile_named
-
-    profile = profile_named(args.profile)
-    if args.update:
-        profile = replace(profile, update_method=args.update)
-    if args.algorithm and args.algorithm not in ALGORITHMS:
-        print(f"aamtrack model prepare: error: --algorithm {args.algorithm!r}: choose one of "
-              f"{', '.join(ALGORITHMS)}", file=sys.stderr)
+    values = {"model_update": args.update, "model_images": args.update_images,
+              "model_limit": args.limit, "algorithm": args.algorithm}
+    try:
+        options = profile_named(args.profile).options.with_values(
+            **{k: v for k, v in values.items() if v})
+    except ConfigError as exc:
+        print(f"aamtrack model prepare: error: {exc}", file=sys.stderr)
         return 2
-    model = profile.model_path(args.update_images or defaults.MODEL_UPDATE_IMAGES, args.limit)
+    model = model_path(options.model)
     print(f"fitting model {model}")
     if not args.no_classifier:
-        print(f"expression classifier ({profile.expression} features, "
-              f"{args.algorithm or profile.fitter.algorithm} fits) "
-              f"{profile.classifier_path(model, args.algorithm)}")
+        print(f"expression classifier ({options.expression.features} features, "
+              f"{options.fit.fitting.algorithm} fits) {classifier_path(model, options)}")
     return 0
 
 

@@ -1,57 +1,43 @@
-"""The options of ``aamtrack track``: the model, the expression classifier, the camera and the
-tracker's configuration (:class:`aamcore.tracker_config.TrackerConfig`, every value under the
-flag ``aamtrack run`` and the fitter service give it), light to import."""
+"""The options of ``aamtrack track``: a profile and the options tree
+(:class:`aamcore.operators.options.PipelineOptions`, every value under the flag ``aamtrack
+run`` and the services give it, grouped by stage), light to import."""
 
 from __future__ import annotations
 
 import argparse
 from dataclasses import dataclass
 
+from aamcore.operators.options import PipelineOptions
 from aamcore.profiles import PROFILES, profile_named
-from aamcore.tracker_config import TRACKER, TrackerConfig
-from services.bus.options import (
-    Options,
-    add_options,
-    in_range,
-    option,
-    options_from,
-    settings_option,
-)
+from services.bus.options import Options, add_options, option, options_from
 
 
 @dataclass(frozen=True)
 class TrackOptions(Options):
-    """What ``aamtrack track`` runs the library's :class:`~aamcore.tracker.FaceTracker` with."""
+    """What ``aamtrack track`` runs the library's :class:`~aamcore.tracker.FaceTracker` with,
+    beside the options tree."""
 
-    profile: str = option("default", "the pipeline whose model, fitting, head-pose estimator "
-                          "and expression classifier are used, unless given here",
+    profile: str = option("default", "the pipeline whose options (model, fitting, head-pose "
+                          "estimator, expression classifier) are used, unless given here",
                           choices=tuple(PROFILES))
-    model: str | None = option(None, "fitting model file (default: the profile's model, "
-                               "trained and cached on first use)", metavar="FILE")
-    classifier: str | None = option(None, "expression classifier file (default: the "
-                                    "profile's for the model, trained and cached on first "
-                                    "use)", metavar="FILE")
-    expression: bool = option(True, "recognise expressions (--no-expression: none, nothing "
-                              "trained for them)")
-    fov: float | None = option(None, "assumed horizontal field of view, degrees",
-                               check=in_range(1, 179))
-    calibration: str | None = option(None, "camera calibration file", metavar="FILE")
-    tracking: TrackerConfig = settings_option(TRACKER)
+    smooth: bool | None = option(None, "smooth over time in every stage (--no-smooth: every "
+                                 "stage's raw answers; default: each stage's own options)")
 
 
 def add_track_options(parser: argparse.ArgumentParser) -> None:
-    """Add :class:`TrackOptions` to ``parser``."""
+    """Add :class:`TrackOptions` and the options tree to ``parser``."""
     add_options(parser, TrackOptions)
+    add_options(parser, PipelineOptions, by_stage=True)
 
 
-def track_options(args: argparse.Namespace) -> TrackOptions:
-    """The checked options of parsed ``track`` arguments; the profile's fitting under the
+def track_options(args: argparse.Namespace) -> tuple[TrackOptions, PipelineOptions]:
+    """The checked options of parsed ``track`` arguments: the profile's options under the
     values given.
 
     Raises
     ------
     OptionError
     """
-    profile = profile_named(getattr(args, "profile", None) or "default")
-    base = TrackOptions(tracking=TRACKER.replace(fitting=profile.fitter))
-    return options_from(TrackOptions, args, base=base)
+    opts = options_from(TrackOptions, args)
+    tree = options_from(PipelineOptions, args, base=profile_named(opts.profile).options)
+    return opts, tree if opts.smooth is None else tree.smoothed(opts.smooth)

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from aamcore.detection.haar import HaarFaceDetector
+from aamcore.operators.detect import DetectOperator
 from proto import FaceBoxes, Frame, ProtoError
 from proto.keys import detect_key
 from services.bus.args import parse_service_args
@@ -38,7 +38,7 @@ NAME = "detector"
 class Detection:
     """One detector shared by the query threads (calls are serialised)."""
 
-    def __init__(self, svc: Service, detector: HaarFaceDetector) -> None:
+    def __init__(self, svc: Service, detector: DetectOperator) -> None:
         self.svc = svc
         self.detector = detector
         self.lock = threading.Lock()
@@ -75,7 +75,7 @@ class Detection:
         self.svc.publish(boxes)
 
 
-def serve(svc: Service, detector: HaarFaceDetector) -> None:
+def serve(svc: Service, detector: DetectOperator) -> None:
     """Answer queries until stopped."""
     detection = Detection(svc, detector)
     svc.queryable(detect_key(svc.stream), detection.answer)
@@ -90,10 +90,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     log = init_process(NAME, args.verbose)
     opts: DetectorOptions = args.options
     try:
-        detector = HaarFaceDetector(scale_factor=opts.scale_factor,
-                                    min_neighbors=opts.min_neighbors,
-                                    min_size=(opts.min_size, opts.min_size),
-                                    max_side=opts.max_side or None)
+        detector = DetectOperator(opts.detect)
     except (FileNotFoundError, RuntimeError, ValueError) as exc:
         log.error("cannot make the Haar detector: %s", exc)
         return 1

@@ -1,26 +1,19 @@
-"""The expression service: the facial expression of each fit, from the fit and its frame.
+"""The expression service: a thin adapter around the expression stage's operator
+(:class:`aamcore.operators.expression.ExpressionOperator`), an ``Expression`` for each fit.
 
-``aamtrack service expression --classifier FILE [--model FILE] [--smooth N]``
+``aamtrack service expression --classifier FILE [--model FILE] [--expression-average N]``
 
-For every fit the service takes the frame it was made on (the latest frames
-are kept by frame index, :meth:`~services.bus.receiving.Receiving.recent`)
-and hands both to the stream's
-:class:`~aamcore.expression.recogniser.ExpressionRecogniser`, as
-:class:`aamcore.tracker.FaceTracker` does with the frames it tracks: quality
-gate, face features (HOG patches at the landmarks, canonical shape), the
-stream's reference learned without labels, the classifier, and with
-``--smooth N`` the probabilities averaged over the last N classified frames,
-with ``--hold N`` a new label published once it has led for N frames. A frame
-without expression (no face, a face the gate refuses, the reference still
-being learned) gets an expression with an empty label and the reason; the
-status line counts each reason. A new run, or a frame index that goes back,
-starts the stream afresh.
+For every fit the service takes the frame it was made on (the latest frames are kept by
+frame index, :meth:`~services.bus.receiving.Receiving.recent`) and hands both to the
+operator, as :class:`aamcore.tracker.FaceTracker` does with the frames it tracks. A fit
+without expression (no face, a face the gate refuses, the reference still being learned)
+gets an expression with an empty label and the reason; the status line counts each
+reason. A new run, or a frame index that goes back, starts afresh.
 
-Without a usable classifier (none given, unreadable, of another format or
-feature version, made for another fitting model) the service still runs: it
-takes fits, answers each with no label and the reason, and says why in its
-status (state ``degraded``); so it does when fits of another landmark scheme
-or AAM arrive.
+Without a usable classifier (none given, unreadable, of another format or feature
+version, made for another fitting model) the service still runs: it answers each fit with
+no label and the reason, and says why in its status (state ``degraded``); so it does when
+fits of another landmark scheme or AAM arrive.
 """
 
 from __future__ import annotations
@@ -34,9 +27,9 @@ import numpy as np
 from aamcore.expression import AAMMismatchError, ClassifierFileError, ExpressionClassifier
 from aamcore.expression.crop import grey as crop_grey
 from aamcore.expression.quality import reason_key
-from aamcore.expression.recogniser import ExpressionRecogniser, Recognition
+from aamcore.expression.recogniser import Recognition
 from aamcore.expression.training import check_made_for, model_fingerprint
-from aamcore.per_face import PerFace
+from aamcore.operators.expression import ExpressionOperator
 from proto import Expression, Fit, Frame, ProtoError
 from services.bus.args import parse_service_args
 from services.bus.images import image_of
@@ -44,6 +37,7 @@ from services.bus.inbox import Received, Recent
 from services.bus.process import init_process
 from services.bus.session import Service
 from services.expression.options import ExpressionOptions
+from services.messages import face_of, frame_of
 
 NAME = "expression"
 FRAMES_KEPT = 64
@@ -117,20 +111,6 @@ def unlabelled(svc: Service, fit: Fit, reason: str, class_names: tuple[str, ...]
                       reason[:MAX_REASON], fit.face_id)
 
 
-def recognise(recogniser: ExpressionRecogniser, fit: Fit, image: np.ndarray) -> Recognition:
-    """The recogniser's answer for a fit and its frame's pixels (H, W[, 3]).
-
-    Raises
-    ------
-    AAMMismatchError
-        For a fit of another landmark scheme or appearance length than the classifier's.
-    """
-    landmarks = fit.landmarks if len(fit.landmarks) else None
-    occluded = None if fit.appearance is None else np.asarray(fit.appearance.occluded)
-    return recogniser.recognise(fit.header.frame_index, image, landmarks, fit.c, fit.failed,
-                                fit.failure_reason, fit.scheme, occluded)
-
-
 def grey_frame(got: Received) -> Received:
     """What the service keeps of a frame: its header and grey pixels, no encoded bytes."""
     frame = got.message
@@ -142,82 +122,59 @@ def grey_frame(got: Received) -> Received:
     return replace(got, message=kept, payload=b"")
 
 
-class ExpressionStream:
-    """The recognisers of the fits of one run, one per face (its reference, smoothing and
-    label hold), with the frames they were made on.
-
-    One recogniser per face (:class:`aamcore.per_face.PerFace`): face 0's, the first,
-    also hears of the frames without a face (``face_id`` -1), as the library's does.
-    """
-
-    def __init__(self, svc: Service, recogniser: ExpressionRecogniser, frames: Recent) -> None:
-        self.svc = svc
-        self.recogniser = recogniser
-        self.frames = frames
-        self.unclassified = Unclassified()
-        self._run: str | None = None
-        self._faces = PerFace(recogniser.fresh, ExpressionRecogniser.reset, recogniser)
-
-    def recogniser_of(self, fit: Fit) -> ExpressionRecogniser:
-        """The recogniser of the face of ``fit``."""
-        return self._faces.of(max(fit.face_id, 0), fit.header.frame_index)
-
-    def handle(self, fit: Fit) -> Expression:
-        """The expression of a fit: a label, or none and why (counted; rejected when the fit
-        is unusable)."""
-        h = fit.header
-        if h.run_id != self._run:
-            self._run = h.run_id
-            self.recogniser.reset()
-            self._faces.clear()
-        recogniser = self.recogniser_of(fit)
-        wait = FRAME_WAIT_S if len(fit.landmarks) else 0.0
-        frame = self.frames.take(h.run_id, h.frame_index, timeout=wait, keep=fit.faces > 1)
-        if frame is None and len(fit.landmarks):
-            self.svc.stats.dropped += 1  # its frame is gone: never received or pushed out
-            reason = "no frame: it was not received in time"
-            self.unclassified.add(h.frame_index, reason)
-            return unlabelled(self.svc, fit, reason, self.recogniser.classifier.class_names)
-        try:
-            image = image_of(frame.message) if frame is not None else np.zeros((1, 1), np.uint8)
-            found = recognise(recogniser, fit, image)
-        except AAMMismatchError as exc:
-            self.svc.reject("fit", f"not classified: {exc}")
-            self.svc.set_state("degraded", str(exc))
-            return unlabelled(self.svc, fit, f"not classified: {exc}")
-        except (ProtoError, ValueError) as exc:
-            self.svc.reject("fit", f"not classified: {exc}")
-            return unlabelled(self.svc, fit, f"not classified: {exc}")
-        if not found.ok:
-            self.unclassified.add(h.frame_index, found.reason)
-        return expression_message(self.svc, fit, found)
+def answer(svc: Service, op: ExpressionOperator, fit: Fit, frames: Recent,
+           unclassified: Unclassified) -> Expression:
+    """The expression of a fit and its frame: a label, or none and why (counted; rejected
+    when the fit is unusable)."""
+    h = fit.header
+    wait = FRAME_WAIT_S if len(fit.landmarks) else 0.0
+    frame = frames.take(h.run_id, h.frame_index, timeout=wait, keep=fit.faces > 1)
+    if frame is None and len(fit.landmarks):
+        svc.stats.dropped += 1  # its frame is gone: never received or pushed out
+        reason = "no frame: it was not received in time"
+        unclassified.add(h.frame_index, reason)
+        return unlabelled(svc, fit, reason, op.class_names)
+    try:
+        image = image_of(frame.message) if frame is not None else np.zeros((1, 1), np.uint8)
+        [found] = op(frame_of(fit), image, [face_of(fit)])
+    except AAMMismatchError as exc:
+        svc.reject("fit", f"not classified: {exc}")
+        svc.set_state("degraded", str(exc))
+        return unlabelled(svc, fit, f"not classified: {exc}")
+    except (ProtoError, ValueError) as exc:
+        svc.reject("fit", f"not classified: {exc}")
+        return unlabelled(svc, fit, f"not classified: {exc}")
+    if not found.ok:
+        unclassified.add(h.frame_index, found.reason)
+    return expression_message(svc, fit, found)
 
 
 def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
           opts: ExpressionOptions) -> None:
-    """Classify fits until stopped."""
-    stream = None
+    """Classify fits until stopped: receive a fit, take its frame, call the operator,
+    publish."""
     if classifier is not None:
         frames = svc.recent("frame", min(max(FRAMES_KEPT, opts.capacity + 16), MAX_FRAMES_KEPT),
                             grey_frame)
-        stream = ExpressionStream(svc, ExpressionRecogniser(classifier, opts.smooth,
-                                                                hold=opts.hold), frames)
-    fits = svc.messages("fit", capacity=opts.capacity)
-    if classifier is None:
+        op = ExpressionOperator(classifier, opts.expression)
+        svc.ready(f"{classifier.kind}, classes {','.join(classifier.class_names)}")
+    else:
         svc.log.error("%s; running without expressions", why)
         svc.set_state("degraded", why)  # before ready(): its first status says so
         svc.ready()
-    else:
-        svc.ready(f"{classifier.kind}, classes {','.join(classifier.class_names)}")
-    for got in fits:
+    unclassified, run = Unclassified(), None
+    for got in svc.messages("fit", capacity=opts.capacity):
         fit = got.message
         assert isinstance(fit, Fit)
-        if stream is None:
+        if classifier is None:
             svc.publish(unlabelled(svc, fit, f"no classifier: {why}"))
             continue
-        svc.publish(stream.handle(fit))
+        if fit.header.run_id != run:
+            run = fit.header.run_id
+            op.reset()
+        svc.publish(answer(svc, op, fit, frames, unclassified))
         if svc.state != "degraded":
-            svc.set_state("running", stream.unclassified.line())
+            svc.set_state("running", unclassified.line())
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -225,8 +182,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_service_args(NAME, "Facial expression of each fit, from the fit and its frame.",
                               ExpressionOptions, argv)
     init_process(NAME, args.verbose)
-    classifier, why = load_classifier(args.options.classifier, args.options.model,
-                                      args.options.algorithm)
+    opts: ExpressionOptions = args.options
+    classifier, why = load_classifier(opts.expression.classifier, opts.fitting_model,
+                                      opts.algorithm)
     with Service(NAME, args.bus) as svc:
         serve(svc, classifier, why, args.options)
     return 0

@@ -116,28 +116,25 @@ def prepare_models(opts: StackOptions) -> StackOptions:
     says why in its status).
     """
     from aamcore.io.sample import DatasetError
-    from aamcore.profiles import profile_named
-    from services.fitter.service import model_path
+    from aamcore.profiles import classifier_path, model_path
+    from services.stack.options import pipeline
 
     services = dict(opts.services)
     fitter = services.get("fitter")
     if fitter is None:
         return opts
-    path = str(model_path(fitter))
-    services["fitter"] = fitter.replace(model=path)
+    path = str(model_path(fitter.model))
+    services["fitter"] = fitter.with_values(model_file=path)
     expression = services.get("expression")
     if expression is not None:
-        classifier = expression.classifier
+        classifier = expression.expression.classifier
         if not classifier:
-            from aamcore.expression.training import classifier_path
-
             try:
-                features = profile_named(opts.launch.profile).expression
-                classifier = str(classifier_path(path, fitter.algorithm, features))
+                classifier = str(classifier_path(path, pipeline(opts)))
             except (DatasetError, OSError, ValueError) as exc:
                 log.warning("no expression classifier: %s", exc)
-        services["expression"] = expression.replace(model=path, classifier=classifier,
-                                                    algorithm=fitter.algorithm)
+        services["expression"] = expression.with_values(
+            fitting_model=path, expression_classifier=classifier, algorithm=fitter.algorithm)
     return replace(opts, services=services)
 
 

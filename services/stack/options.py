@@ -1,21 +1,24 @@
-"""What ``aamtrack run`` is asked to do: the launcher's own options and each service's.
+"""What ``aamtrack run`` is asked to do: the launcher's own options, the options tree and the
+services' own.
 
-The services' options are their own dataclasses (``services/<name>/options.py``);
-``aamtrack run`` offers the ones of :data:`RUN_OPTIONS` under the same flags,
-so that help, defaults, choices and range checks are written once, and the
-launcher turns each service's dataclass back into its command line
+``aamtrack run`` offers the whole options tree (:class:`~aamcore.operators.options.PipelineOptions`,
+grouped by stage, over the profile's preset or a stack file's) and hands each service the
+parts of its stage (:func:`with_stages`), with the source's and the Rerun logger's own
+options: help, defaults, choices and range checks are written once, and the launcher
+turns each service's options back into its command line
 (:func:`services.bus.args.service_argv`).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from aamcore.profiles import PROFILES, Profile, profile_named
-from aamcore.tracker_config import TrackerConfig
+from aamcore.operators.options import PIPELINE, STAGES, PipelineOptions
+from aamcore.profiles import PROFILES, profile_named
 from services.bus.connection import DEFAULT_STREAM, BusOptions
 from services.bus.options import (
     OptionError,
@@ -28,20 +31,14 @@ from services.bus.options import (
 from services.stack.drain import DRAIN_MAX, DRAIN_QUIET
 from services.stack.registry import SERVICES
 
-TRACKING = tuple(s.name for s in TrackerConfig.settings()
-                 if s.name not in ("smoothing", "expression_hold"))
-"""The tracker's values ``aamtrack run`` offers as the fitter's (smoothing is the launcher's
-``--smooth``, the label hold the expression service's ``--expression-hold``)."""
 RUN_OPTIONS: dict[str, tuple[str, ...] | None] = {
     "source": None,
-    "fitter": ("model", "model_limit", "model_images", "model_update", *TRACKING),
-    "pose": ("fov", "calibration", "estimator"),
-    "expression": ("classifier", "hold"),
     "rerun": ("rrd", "serve", "viewer"),
 }
-"""The options of each service that ``aamtrack run`` offers (None: all of them)."""
+"""The services' own options that ``aamtrack run`` offers (None: all of them), beside the
+whole options tree (:class:`~aamcore.operators.options.PipelineOptions`), whose parts it
+hands to the services of their stages."""
 RUN_FLAGS: dict[str, dict[str, tuple[str, ...]]] = {
-    "expression": {"hold": ("--expression-hold",)},
     "rerun": {"viewer": ("--connect",)},
 }
 """Flags ``aamtrack run`` gives some of those options instead of the service's own.
@@ -49,6 +46,9 @@ RUN_FLAGS: dict[str, dict[str, tuple[str, ...]]] = {
 ``--connect`` of a service is its Zenoh endpoint; ``aamtrack run`` has none,
 and there ``--connect [URL]`` streams to a Rerun viewer, as ``rerun --connect``.
 """
+COMMON = {"source": ("video", "camera", "url", "pace"), "launch": ("profile", "smooth"),
+          "pipeline": ("max_faces",), "rerun": ("rrd", "viewer")}
+"""What ``aamtrack run --help`` shows first."""
 ALWAYS = ("detector", "fitter", "pose", "expression")
 """Services every stack runs, beside the source."""
 
@@ -72,9 +72,9 @@ class LaunchOptions(Options):
     record: str | None = option(None, "record every result message to FILE", metavar="FILE")
     record_images: bool = option(False, "with --record: frames and overlays too")
     summary: str | None = option(None, "write the run's summary as JSON", metavar="FILE")
-    smooth: bool | None = option(None, "smooth landmarks and pose over time (One Euro filter) "
-                                 "and hold expression labels (default: as the fitter, pose "
-                                 "and expression services, on)")
+    smooth: bool | None = option(None, "smooth over time in every stage: landmarks and pose "
+                                 "(One Euro filter); --no-smooth also shows expression labels "
+                                 "unheld and unaveraged (default: each stage's own options)")
     restart: bool = option(True, "restart services that die")
     start_timeout: float = option(120.0, "seconds to wait for the services to start",
                                   check=in_range(1))
@@ -105,6 +105,9 @@ class StackOptions:
     elsewhere : dict of str to tuple of str
         Across hosts: the services each other host runs; each must be heard from (a signed
         status) within the start timeout.
+    tree : PipelineOptions, optional
+        The options tree whose parts the services were given (None: the one their parts
+        make).
     """
 
     launch: LaunchOptions = LaunchOptions()
@@ -114,6 +117,7 @@ class StackOptions:
     bus: BusOptions | None = None
     wait_for: tuple[str, ...] | None = None
     elsewhere: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    tree: PipelineOptions | None = None
 
     def options(self, name: str) -> Any:
         """The options of service ``name`` (its defaults when it is not started)."""
@@ -121,13 +125,28 @@ class StackOptions:
 
 
 def add_run_options(parser: argparse.ArgumentParser) -> None:
-    """Add the launcher's options and the services' :data:`RUN_OPTIONS` to ``parser``."""
-    add_options(parser, LaunchOptions)
-    for name, only in RUN_OPTIONS.items():
-        add_options(parser.add_argument_group(name), SERVICES[name].options, only,
-                    RUN_FLAGS.get(name))
+    """Add the launcher's options, the options tree grouped by stage and the services'
+    :data:`RUN_OPTIONS` to ``parser``, the :data:`COMMON` ones first."""
+    common = parser.add_argument_group("common options")
+    source, rerun = SERVICES["source"].options, SERVICES["rerun"].options
+    add_options(common, source, COMMON["source"])
+    add_options(common, LaunchOptions, COMMON["launch"])
+    add_options(common, PipelineOptions, COMMON["pipeline"])
+    add_options(common, rerun, COMMON["rerun"], RUN_FLAGS["rerun"])
+    add_options(parser, PipelineOptions, _but(PipelineOptions, COMMON["pipeline"]),
+                by_stage=True)
+    add_options(parser.add_argument_group("launcher"), LaunchOptions,
+                _but(LaunchOptions, COMMON["launch"]))
+    add_options(parser.add_argument_group("source"), source, _but(source, COMMON["source"]))
+    add_options(parser.add_argument_group("rerun"), rerun,
+                [n for n in RUN_OPTIONS["rerun"] or () if n not in COMMON["rerun"]],
+                RUN_FLAGS["rerun"])
     parser.add_argument("--set", action="append", default=[], metavar="SERVICE:ARG",
                         help="extra argument for one service, e.g. fitter:--detect-timeout=2")
+
+
+def _but(cls: type[Options], names: Sequence[str]) -> list[str]:
+    return [s.name for s in cls.settings() if s.name not in names]
 
 
 def extra_args(items: Sequence[str]) -> dict[str, list[str]]:
@@ -156,46 +175,42 @@ def stack_options(args: argparse.Namespace, base: StackOptions | None = None) ->
     """
     base = base or StackOptions()
     launch = options_from(LaunchOptions, args, base=base.launch)
-    profile = profile_named(launch.profile)
-    every = {name: options_from(info.options, args, RUN_OPTIONS.get(name, ()),
-                                base=profiled(name, base.services.get(name), profile),
-                                flags=RUN_FLAGS.get(name))
+    tree = (pipeline_of(base.services) if base.services
+            else profile_named(launch.profile).options)
+    tree = options_from(PipelineOptions, args, base=tree)
+    if launch.smooth is not None:
+        tree = tree.smoothed(launch.smooth)
+    every = {name: with_stages(options_from(info.options, args, RUN_OPTIONS.get(name, ()),
+                                            base=base.services.get(name),
+                                            flags=RUN_FLAGS.get(name)), tree)
              for name, info in SERVICES.items()}
     if base.services:
         names = list(base.services)
     else:
-        names = ["source", *ALWAYS, *(["ar"] if launch.ar else []),
+        always = [n for n in ALWAYS if n != "expression" or tree.expression.enabled]
+        names = ["source", *always, *(["ar"] if launch.ar else []),
                  *(["rerun"] if every["rerun"].has_output else [])]
     services = {name: every[name] for name in SERVICES if name in names}
-    if launch.smooth is not None:
-        if "fitter" in services:
-            fitter = services["fitter"]
-            services["fitter"] = fitter.replace(
-                tracking=fitter.tracking.replace(smoothing=launch.smooth))
-        if "pose" in services:
-            services["pose"] = services["pose"].replace(smooth=launch.smooth)
-        if "expression" in services and not launch.smooth:
-            services["expression"] = services["expression"].replace(hold=0)
     if "source" in services and not services["source"].has_input:
         raise OptionError("give the input: --video FILE, --camera INDEX or --url URL")
     services.update(keep_every_fit(services))
     extra = {**base.extra, **extra_args(getattr(args, "set", []) or [])}
     return StackOptions(launch, services, extra, bool(getattr(args, "verbose", False)),
-                        base.bus, base.wait_for, base.elsewhere)
+                        base.bus, base.wait_for, base.elsewhere, tree)
 
 
-def profiled(name: str, options: Options | None, profile: Profile) -> Options:
-    """Service ``name``'s options (its defaults, or a stack file's) with ``profile``'s
-    choices; the command line's go over them."""
-    options = options or SERVICES[name].options()
-    if profile.name == "default":
-        return options
-    if name == "fitter":
-        return options.replace(tracking=options.tracking.replace(fitting=profile.fitter),
-                               model_update=profile.update_method)
-    if name == "pose":
-        return options.replace(estimator=profile.pose_estimator)
-    return options
+def with_stages(options: Options, tree: PipelineOptions) -> Any:
+    """A service's options with the parts of the options tree its stage takes."""
+    parts = {f.name: getattr(tree, f.name) for f in dataclasses.fields(options)
+             if f.name in STAGES and "group" in f.metadata}
+    return options.replace(**parts) if parts else options
+
+
+def pipeline_of(services: dict[str, Any]) -> PipelineOptions:
+    """The options tree the services' parts make (the defaults for the parts of none)."""
+    parts = {f.name: getattr(opts, f.name) for opts in services.values()
+             for f in dataclasses.fields(opts) if f.name in STAGES and "group" in f.metadata}
+    return PIPELINE.replace(**parts)
 
 
 FAST_CAPACITY = 1024
@@ -243,9 +258,9 @@ def parse_run_args(argv: Sequence[str]) -> StackOptions:
     return stack_options(parser.parse_args(list(argv)))
 
 
-def tracker_config(stack: StackOptions) -> TrackerConfig:
-    """The tracker's configuration a run carries out: the fitter's, with the expression
-    service's label hold (what :class:`aamcore.tracker.FaceTracker` takes for the same
-    run)."""
-    return stack.options("fitter").tracking.replace(expression_hold=stack.options("expression")
-                                                    .hold)
+def pipeline(stack: StackOptions) -> PipelineOptions:
+    """The options tree a run carries out (what :class:`aamcore.tracker.FaceTracker` takes
+    for the same run)."""
+    if stack.tree is not None:
+        return stack.tree
+    return pipeline_of({name: stack.options(name) for name in SERVICES})

@@ -106,16 +106,16 @@ def check_models(opts: StackOptions) -> None:
     from aamcore.model.file import ModelFileError
 
     fitter = opts.services.get("fitter")
-    if fitter is not None and fitter.model:
+    if fitter is not None and fitter.model.file:
         from aamcore.fitting.algorithm import missing_part
 
         try:
-            model = FittingModel.load(fitter.model)
+            model = FittingModel.load(fitter.model.file)
         except ModelFileError as exc:
             raise PreflightError(f"--model: {exc}") from None
         why = missing_part(model, fitter.algorithm)
         if why:
-            raise PreflightError(f"--model {fitter.model}: {why}")
+            raise PreflightError(f"--model {fitter.model.file}: {why}")
     check_classifier(opts.services.get("expression"), fitter)
     pose = opts.services.get("pose")
     if pose is not None:
@@ -123,25 +123,25 @@ def check_models(opts: StackOptions) -> None:
         from aamcore.pose.estimator import Cameras, HeadPoseEstimator
 
         try:
-            cameras = Cameras(pose.fov, pose.calibration)
+            cameras = Cameras(pose.pose.fov, pose.pose.calibration)
         except (IntrinsicsError, OSError, ValueError) as exc:
             raise PreflightError(f"--calibration: {exc}") from None
         try:  # its head model comes from the data folder
-            HeadPoseEstimator(cameras, method=pose.estimator)
+            HeadPoseEstimator(cameras, method=pose.pose.estimator)
         except (PoseError, OSError, ValueError) as exc:
             raise PreflightError(f"pose: {exc}") from None
 
 
 def check_classifier(expression: Any, fitter: Any) -> None:
     """The classifier loads and was made for the fits of the fitter's model and algorithm."""
-    if expression is None or not expression.classifier:
+    if expression is None or not expression.expression.classifier:
         return
     from aamcore.expression import AAMMismatchError, ClassifierFileError, ExpressionClassifier
     from aamcore.expression.training import check_made_for, model_fingerprint
 
     try:
-        classifier = ExpressionClassifier.load(expression.classifier)
-        model = expression.model or (fitter.model if fitter is not None else None)
+        classifier = ExpressionClassifier.load(expression.expression.classifier)
+        model = expression.fitting_model or (fitter.model.file if fitter is not None else None)
         if model and fitter is not None:
             check_made_for(classifier, model_fingerprint(model), fitter.algorithm)
         elif model:

@@ -74,7 +74,8 @@ def test_a_classifier_made_for_other_fits_is_refused(model_path: Path, classifie
 def test_smoothing_reduces_the_frame_to_frame_jitter(
     model_path: Path, single_face: Path, results: list[FaceResult]
 ) -> None:
-    raw = list(FaceTracker(model=model_path, classifier=False, smoothing=False)
+    raw = list(FaceTracker(model=model_path, classifier=False, landmark_smoothing=False,
+                           pose_smoothing=False)
                .process_video(single_face))
 
     def jitter(rs: list[FaceResult]) -> float:
@@ -111,11 +112,11 @@ def test_the_pose_estimator_can_be_chosen(
     model_path: Path, single_face: Path, results: list[FaceResult]
 ) -> None:
     from aamcore.io.video import video_frames
-    from aamcore.pose.errors import PoseError
+    from aamcore.settings import ConfigError
 
     posit = FaceTracker(model=model_path, classifier=False, pose_estimator="posit")
-    assert posit.pose_method == "posit"
-    assert FaceTracker(model=model_path, classifier=False).pose_method == "contour"
+    assert posit.pose.estimator.method == "posit"
+    assert FaceTracker(model=model_path, classifier=False).pose.estimator.method == "contour"
     both = 0
     for frame, contour in zip(video_frames(single_face)[:5], results[:5], strict=False):
         r = posit.process(frame)
@@ -124,7 +125,8 @@ def test_the_pose_estimator_can_be_chosen(
             both += 1
             assert abs(r.yaw_deg - contour.yaw_deg) < 10.0
     assert both >= 3
-    with pytest.raises(PoseError, match="unknown pose estimator"):
+    with pytest.raises(ConfigError, match="pose_estimator 'eos': choose one of .* "
+                                          r"\(pose stage\)"):
         FaceTracker(model=model_path, classifier=False, pose_estimator="eos")
 
 

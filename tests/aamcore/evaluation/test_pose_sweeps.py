@@ -27,7 +27,8 @@ class CountingTracker:
     """The library's face tracker as ``track(frames) -> landmarks``, counting its calls."""
 
     def __init__(self, model_path: Path) -> None:
-        self.tracker = FaceTracker(model=model_path, classifier=False, smoothing=False)
+        self.tracker = FaceTracker(model=model_path, classifier=False,
+                                   landmark_smoothing=False, pose_smoothing=False)
         self.calls = 0
 
     def __call__(self, frames: Iterable[np.ndarray]) -> list[np.ndarray | None]:

@@ -9,20 +9,22 @@ import moderngl
 import numpy as np
 import pytest
 
+from aamcore.operators.overlay import OverlayOperator
 from aamcore.pose import CameraIntrinsics
 from proto import Frame, Header, HeadPose, decode, encode
-from services.ar.service import FRAMES_KEPT, Compositor, overlay_message
+from services.ar.service import FRAMES_KEPT, overlay_message
 from services.bus.connection import BusOptions
 from services.bus.images import image_of
 from services.bus.session import Service
+from services.messages import pose_of
 
 
 @pytest.fixture(scope="module")
-def compositor() -> Iterator[Compositor]:
+def overlay() -> Iterator[OverlayOperator]:
     ctx = moderngl.create_standalone_context(backend="egl")
-    comp = Compositor(ctx)
-    yield comp
-    comp.release()
+    op = OverlayOperator(ctx=ctx)
+    yield op
+    op.close()
     ctx.release()
 
 
@@ -39,16 +41,17 @@ def frontal_pose(width: int, height: int, distance_mm: float = 600.0) -> HeadPos
                     "assumed:fov60", 3, True, "", 0.5)
 
 
-def test_glasses_are_drawn_around_the_eyes_and_nowhere_far_away(compositor: Compositor) -> None:
+def test_glasses_are_drawn_around_the_eyes_and_nowhere_far_away(
+        overlay: OverlayOperator) -> None:
     frame = np.full((360, 640, 3), 180, np.uint8)
-    out = compositor.render(frame, frontal_pose(640, 360))
+    out = overlay(frame, [pose_of(frontal_pose(640, 360))])
     changed = np.any(out != frame, axis=2)
     ys, xs = np.nonzero(changed)
     assert changed.sum() > 2000
     assert abs(xs.mean() - 320) < 40 and abs(ys.mean() - 180) < 60
     assert not changed[:, :150].any() and not changed[:, -150:].any()
-    assert compositor.render(np.zeros((120, 160, 3), np.uint8),
-                             frontal_pose(160, 120)).shape == (120, 160, 3)
+    assert overlay(np.zeros((120, 160, 3), np.uint8),
+                   [pose_of(frontal_pose(160, 120))]).shape == (120, 160, 3)
 
 
 def test_overlay_messages_raw_and_jpeg(svc: Service) -> None:

@@ -17,21 +17,19 @@ import pytest
 from aamcore.config import REPO_ROOT
 from aamcore.expression import ExpressionClassifier
 from aamcore.expression.faces import stack_observations
-from aamcore.expression.recogniser import STACK_HOLD, ExpressionRecogniser
+from aamcore.expression.recogniser import STACK_HOLD
 from aamcore.fitting.model import FittingModel
 from aamcore.io.jaffe import load_jaffe
+from aamcore.operators.expression import ExpressionOperator
+from aamcore.operators.options import PIPELINE
 from proto import Fit, FitAppearance, Frame, Header, decode, encode
 from proto.keys import status_key, topic_key
 from services.bus.connection import BusOptions
 from services.bus.options import options_argv
 from services.bus.qos import MUST_ARRIVE
 from services.bus.session import Service
-from services.expression.service import (
-    Unclassified,
-    expression_message,
-    load_classifier,
-    recognise,
-)
+from services.expression.service import Unclassified, expression_message, load_classifier
+from services.messages import face_of, frame_of
 
 Stream = list[tuple[str, Frame, Fit]]
 
@@ -90,12 +88,12 @@ def test_every_frame_of_a_stream_is_classified_from_the_first(
 ) -> None:
     classifier, _ = load_classifier(str(classifier_path), str(model_path))
     assert classifier is not None
-    recogniser = ExpressionRecogniser(classifier)
+    recognise = ExpressionOperator(classifier, PIPELINE.expression.replace(hold=0))
     right = 0
     with Service("expression", BusOptions("cam0"), handle_signals=False) as svc:
         stream = poser_stream(model_path, jaffe_dir, "KA", 3)
         for label, frame, fit in stream:
-            found = recognise(recogniser, fit, frame.image)
+            [found] = recognise(frame_of(fit), frame.image, [face_of(fit)])
             assert found.ok, found.reason
             message = expression_message(svc, fit, found)
             assert message.header.frame_index == fit.header.frame_index
@@ -106,7 +104,8 @@ def test_every_frame_of_a_stream_is_classified_from_the_first(
         blank = np.zeros((240, 320), np.uint8)
         _, frame, _ = stream[0]
         none = fit_of(frame, np.zeros((0, 2)), np.zeros(0), True, "no face")
-        message = expression_message(svc, none, recognise(recogniser, none, blank))
+        [found] = recognise(frame_of(none), blank, [face_of(none)])
+        message = expression_message(svc, none, found)
         assert message.label == "" and message.reason == "no face" and len(message.scores) == 0
         decoded = decode(encode(message), "expression")
         assert decoded.reason == "no face" and decoded.class_names == classifier.class_names
@@ -140,10 +139,11 @@ def _stop(proc: subprocess.Popen[str]) -> str:
 def _expected(classifier: ExpressionClassifier, stream: Stream) -> dict[int, str]:
     """What the library's recogniser gives on the same fits and frames, with the service's
     label hold: the label, or "" for a frame without one."""
-    recogniser = ExpressionRecogniser(classifier, hold=STACK_HOLD)
+    recognise = ExpressionOperator(classifier, PIPELINE.expression)
+    assert PIPELINE.expression.hold == STACK_HOLD
     labels = {}
     for _, frame, fit in stream:
-        found = recognise(recogniser, fit, frame.image)
+        [found] = recognise(frame_of(fit), frame.image, [face_of(fit)])
         labels[fit.header.frame_index] = found.label or ""
     return labels
 

@@ -16,11 +16,14 @@ from aamcore.fitting.model import FittingModel
 from aamcore.fitting.result import AAMFit, LandmarkFit
 from aamcore.fitting.warps import FitterWarp
 from aamcore.model.similarity import Similarity
+from aamcore.operators.faces import NO_FACE, FaceFit
+from aamcore.operators.fit import FitOperator
+from aamcore.operators.options import PIPELINE
 from aamcore.warp.reference_frame import ReferenceFrame
 from proto import Header, decode, encode
 from services.bus.connection import BusOptions
 from services.bus.session import Service
-from services.fitter.service import NO_FACE, ServiceDetector, fit_message, warm_up
+from services.fitter.service import ServiceDetector, fit_message, warm_up
 
 TEXTURE_MEAN_TOLERANCE = 0.5
 """Largest mean difference in grey levels between the GPU's and the CPU's texture of one
@@ -86,18 +89,16 @@ def test_the_default_method_samples_its_appearance_without_the_gl_worker(
 
 def test_the_gl_worker_starts_only_when_something_warps(model_path: Path) -> None:
     model = FittingModel.load(model_path)
-    warp = FitterWarp(model.aam, "gpu")
-    fitter = Fitter(model, warp=warp, appearance=False)
-    warm_up(fitter, warp)
-    assert not fitter.warps and not warp.started and warp.path == "none"
-    warp = FitterWarp(model.aam, "gpu")
-    fitter = Fitter(model, warp=warp)
+    op = FitOperator(model, PIPELINE.fit.with_values(warp="gpu", appearance=False))
+    warm_up(op)
+    assert not op.fitter.warps and not op.warp.started and op.warp.path == "none"
+    op = FitOperator(model, PIPELINE.fit.with_values(warp="gpu"))
     try:
-        warm_up(fitter, warp)
-        assert fitter.warps and warp.started and warp.path == "gpu"
-        assert warp.counts == {"gpu": 0, "cpu": 0}  # the warm-up's warps are not counted
+        warm_up(op)
+        assert op.fitter.warps and op.warp.started and op.warp.path == "gpu"
+        assert op.warp.counts == {"gpu": 0, "cpu": 0}  # the warm-up's warps are not counted
     finally:
-        warp.close()
+        op.close()
 
 
 def test_a_gl_warp_that_fails_mid_run_falls_back_to_the_cpu(
@@ -135,11 +136,18 @@ def _result(points: np.ndarray, failed: bool = False, reason: str = "") -> AAMFi
                   occluded=None if failed else flags)
 
 
+def message(header: Header, fit: LandmarkFit | None, warp_path: str, size: tuple[int, int],
+            face_id: int = 0, faces: int = 1) -> object:
+    """The fitter's message of ``fit`` as the fit operator hands it on."""
+    entry = FaceFit.of(face_id if fit is not None and fit.ok else -1, fit, "ibug68")
+    return fit_message(header, entry, warp_path, size, FRAME, faces)
+
+
 def test_fit_messages_for_good_failed_lost_and_broken_results() -> None:
     header = Header.now("cam0", 3, "fitter")
     points = np.random.default_rng(0).uniform(10, 200, (68, 2))
     size = (640, 480)
-    good = decode(encode(fit_message(header, _result(points), "ibug68", "gpu", size, FRAME)),
+    good = decode(encode(message(header, _result(points), "gpu", size)),
                   "fit")
     assert not good.failed and good.warp_path == "gpu" and good.confidence == 0.75
     found = good.appearance
@@ -151,26 +159,24 @@ def test_fit_messages_for_good_failed_lost_and_broken_results() -> None:
     assert (good.image_width, good.image_height) == (640, 480)
     assert np.allclose(good.similarity, [1.1, 0.0, 5.0, 6.0])
     assert np.allclose(good.landmarks, points, atol=1e-3)
-    failed = fit_message(header, _result(points, True, "beyond 3 sigma"), "ibug68", "cpu", size,
-                         FRAME)
+    failed = message(header, _result(points, True, "beyond 3 sigma"), "cpu", size)
     assert failed.failed and failed.failure_reason == "beyond 3 sigma" and len(failed.landmarks)
     assert failed.appearance is not None and failed.appearance.occluded.shape == (0,)
-    lost = fit_message(header, None, "ibug68", "none", (640, 480), FRAME)
+    lost = message(header, None, "none", (640, 480))
     assert lost.failed and lost.failure_reason == NO_FACE and lost.landmarks.shape == (0, 2)
     assert lost.appearance is None and lost.warp_path == "none"
     assert (good.face_id, failed.face_id, lost.face_id) == (0, -1, -1)
     assert (good.faces, failed.faces, lost.faces) == (1, 1, 1)
-    second = fit_message(header, _result(points), "ibug68", "gpu", size, FRAME, 7, 3)
+    second = message(header, _result(points), "gpu", size, 7, 3)
     assert (second.face_id, second.faces) == (7, 3)
-    broken = fit_message(header, _result(np.full((68, 2), np.nan)), "ibug68", "cpu", (640, 480),
-                         FRAME)
+    broken = message(header, _result(np.full((68, 2), np.nan)), "cpu", (640, 480))
     assert broken.failed and broken.failure_reason == "non-finite result"
     assert broken.landmarks.shape == (0, 2) and broken.appearance is None
     # a landmark regressor's fit without the appearance: nothing was warped
     bare = LandmarkFit(points, Similarity(1.1, 0.0, 5.0, 6.0), confidence=0.9, score=-3.5)
-    message = decode(encode(fit_message(header, bare, "ibug68", "none", size, FRAME)), "fit")
-    assert not message.failed and message.appearance is None and message.warp_path == "none"
-    assert message.confidence == pytest.approx(0.9) and message.c is None
+    plain = decode(encode(message(header, bare, "none", size)), "fit")
+    assert not plain.failed and plain.appearance is None and plain.warp_path == "none"
+    assert plain.confidence == pytest.approx(0.9) and plain.c is None
 
 
 def test_without_a_detector_service_the_fitter_detects_locally_and_says_so(

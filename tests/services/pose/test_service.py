@@ -13,14 +13,16 @@ import pytest
 
 from aamcore import defaults
 from aamcore.io.pts import read_pts
-from aamcore.pose.errors import PoseError
-from aamcore.pose.estimator import Cameras, HeadPoseEstimator, HeadPoseTracker
-from aamcore.pose.head_model import openface68
+from aamcore.operators.faces import FacePose
+from aamcore.operators.options import PIPELINE
+from aamcore.operators.pose import PoseOperator
+from aamcore.pose.estimator import Cameras
 from aamcore.pose.reliability import reason_key
-from proto import Fit, Header, decode, encode
+from proto import Fit, Header, HeadPose, decode, encode
 from services.bus.connection import BusOptions
-from services.bus.options import OptionError
+from services.bus.options import OptionError, options_from
 from services.bus.session import Service
+from services.messages import face_of, frame_of
 from services.pose.options import PoseOptions
 from services.pose.service import PoseCounts, pose_message
 from services.stack.launcher import Stack
@@ -41,6 +43,17 @@ def fit_of(points: np.ndarray, size: tuple[int, int], failed: bool = False) -> F
                "lost" if failed else "", 0.0 if failed else 0.9, "none", None)
 
 
+def operator(method: str = defaults.POSE_ESTIMATOR) -> PoseOperator:
+    """The pose stage without smoothing (each call a pose of its own)."""
+    return PoseOperator(PIPELINE.pose.replace(estimator=method, smoothing=False))
+
+
+def answer(svc: Service, fit: Fit, op: PoseOperator) -> HeadPose | FacePose:
+    """The service's message for ``fit``, or the operator's answer without a pose."""
+    [pose] = op(frame_of(fit), [face_of(fit)])
+    return pose_message(svc, fit, pose) if pose.found else pose
+
+
 @pytest.fixture(scope="module")
 def svc() -> Service:
     with Service("pose", BusOptions("cam0"), handle_signals=False) as s:
@@ -52,11 +65,9 @@ def test_pose_of_a_frontal_face_is_in_front_of_the_camera_and_upright(
     svc: Service, data_dir: Path, method: str
 ) -> None:
     points, size = marked_face(data_dir, "einstein")
-    model = openface68(rigid_subset=True)
-    estimator = HeadPoseEstimator(Cameras(60.0, None), model if method == "posit" else None,
-                                  method)
-    poses = HeadPoseTracker(estimator)
-    pose = decode(encode(pose_message(svc, fit_of(points, size), poses)), "pose")
+    op = operator(method)
+    model = op.estimator.model
+    pose = decode(encode(answer(svc, fit_of(points, size), op)), "pose")
     assert pose.header.frame_index == 9 and pose.header.capture_time_ns == 123
     assert pose.reliable and pose.intrinsics_source == "assumed:fov60"
     assert (pose.image_width, pose.image_height) == size
@@ -71,20 +82,18 @@ def test_pose_of_a_frontal_face_is_in_front_of_the_camera_and_upright(
 
 def test_a_failed_fit_gives_an_unreliable_pose(svc: Service, data_dir: Path) -> None:
     points, size = marked_face(data_dir, "breakingbad")
-    poses = HeadPoseTracker(HeadPoseEstimator())
-    pose = pose_message(svc, fit_of(points, size, failed=True), poses)
+    pose = answer(svc, fit_of(points, size, failed=True), operator())
     assert not pose.reliable
 
 
 def test_the_pose_uses_the_size_of_the_frame_of_its_fit(svc: Service, data_dir: Path) -> None:
     points, size = marked_face(data_dir, "einstein")
-    estimator = HeadPoseEstimator()
-    estimator = HeadPoseTracker(estimator)
-    near = pose_message(svc, fit_of(points, size), estimator)
+    estimator = operator()
+    near = answer(svc, fit_of(points, size), estimator)
     # The same face, as far from the centre, in a frame twice as large: the assumed camera's
     # focal length doubles, so the head is twice as far (and as far off the axis).
     centred = points + np.array(size) / 2
-    doubled = pose_message(svc, fit_of(centred, (2 * size[0], 2 * size[1])), estimator)
+    doubled = answer(svc, fit_of(centred, (2 * size[0], 2 * size[1])), estimator)
     assert (doubled.image_width, doubled.image_height) == (2 * size[0], 2 * size[1])
     expected = near.translation_mm * [1.0, 1.0, 2.0]
     np.testing.assert_allclose(doubled.translation_mm, expected, rtol=0.05, atol=5.0)
@@ -106,32 +115,33 @@ def test_landmarks_outside_the_frame_give_an_unreliable_pose_with_its_reason_or_
     svc: Service, data_dir: Path
 ) -> None:
     points, size = marked_face(data_dir, "einstein")
-    poses = HeadPoseTracker(HeadPoseEstimator())
+    poses = operator()
     half_out = points + [0.3 * np.ptp(points[:, 0]) + size[0] - points[:, 0].max(), 0.0]
-    pose = decode(encode(pose_message(svc, fit_of(half_out, size), poses)), "pose")
+    pose = decode(encode(answer(svc, fit_of(half_out, size), poses)), "pose")
     assert not pose.reliable and pose.reason.startswith("points outside the frame")
-    with pytest.raises(PoseError, match="out of the frame"):
-        pose_message(svc, fit_of(points + [3.0 * size[0], 0.0], size), poses)
+    gone = answer(svc, fit_of(points + [3.0 * size[0], 0.0], size), poses)
+    assert isinstance(gone, FacePose) and not gone.found and "out of the frame" in gone.reason
 
 
 def test_a_failed_fit_says_so_and_a_good_one_has_a_predicted_sd(
     svc: Service, data_dir: Path
 ) -> None:
     points, size = marked_face(data_dir, "einstein")
-    poses = HeadPoseTracker(HeadPoseEstimator())
-    good = pose_message(svc, fit_of(points, size), poses)
+    poses = operator()
+    good = answer(svc, fit_of(points, size), poses)
     assert good.reliable and good.reason == "" and 0.0 < good.angle_sd_deg < 3.0
-    failed = pose_message(svc, fit_of(points, size, failed=True), poses)
+    failed = answer(svc, fit_of(points, size, failed=True), poses)
     assert not failed.reliable and failed.reason == "fit failed: lost"
-    posit = HeadPoseTracker(HeadPoseEstimator(method="posit"))
-    assert np.isnan(pose_message(svc, fit_of(points, size), posit).angle_sd_deg)
+    assert np.isnan(answer(svc, fit_of(points, size), operator("posit")).angle_sd_deg)
 
 
 def test_the_estimator_option() -> None:
-    assert PoseOptions().estimator == defaults.POSE_ESTIMATOR == "contour"
-    assert PoseOptions(estimator="contour+calib").estimator == "contour+calib"
-    with pytest.raises(OptionError, match="--estimator 'eos': choose one of contour, posit"):
-        PoseOptions(estimator="eos")
+    assert PoseOptions().pose.estimator == defaults.POSE_ESTIMATOR == "contour"
+    chosen = PoseOptions().with_values(pose_estimator="contour+calib")
+    assert chosen.pose.estimator == "contour+calib"
+    with pytest.raises(OptionError, match=r"--estimator 'eos': choose one of contour, posit"
+                                          r".* \(pose stage\)"):
+        options_from(PoseOptions, pose_estimator="eos")
 
 
 def test_the_status_line_counts_reasons() -> None:

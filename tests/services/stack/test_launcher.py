@@ -365,7 +365,8 @@ def test_without_jaffe_the_expression_service_is_started_without_a_classifier(
     with caplog.at_level(logging.WARNING):
         ready = prepare_models(opts)
     expression = ready.services["expression"]
-    assert expression.model == str(model_path) and expression.classifier is None
+    assert expression.fitting_model == str(model_path)
+    assert expression.expression.classifier is None
     assert any("no expression classifier" in r.getMessage() for r in caplog.records)
 
 

@@ -1,26 +1,42 @@
-"""The options of ``aamtrack run``: derived from the services', checked before start."""
+"""The options of ``aamtrack run``: the options tree, a part per stage handed to the services
+of its stage, grouped by stage in the help, checked before start."""
 
 from __future__ import annotations
 
+import argparse
+
 import pytest
 
-from aamcore.tracker_config import TRACKER
+from aamcore.operators.options import PIPELINE, STAGES
+from aamcore.profiles import profile_named
 from services.bus.options import OptionError
-from services.stack.options import parse_run_args
+from services.stack.options import add_run_options, parse_run_args, pipeline
 
 
 def test_default_run_starts_every_stage_and_smooths() -> None:
     opts = parse_run_args(["--video", "clip.mp4"])
     assert list(opts.services) == ["source", "detector", "fitter", "pose", "expression", "ar"]
-    assert opts.services["fitter"].tracking.smoothing and opts.services["pose"].smooth
+    assert opts.services["fitter"].fit.landmark_smoothing and opts.services["pose"].pose.smoothing
+    assert pipeline(opts) == PIPELINE
 
 
-def test_no_smooth_reaches_fitter_and_pose() -> None:
+def test_no_smooth_reaches_every_stage() -> None:
     opts = parse_run_args(["--video", "clip.mp4", "--no-smooth"])
-    assert not opts.services["fitter"].tracking.smoothing
-    assert not opts.services["pose"].smooth
-    assert opts.services["expression"].hold == 0
-    assert parse_run_args(["--video", "clip.mp4"]).services["expression"].hold > 0
+    assert not opts.services["fitter"].fit.landmark_smoothing
+    assert not opts.services["pose"].pose.smoothing
+    assert opts.services["expression"].expression.hold == 0
+    assert parse_run_args(["--video", "clip.mp4"]).services["expression"].expression.hold > 0
+    assert pipeline(opts) == PIPELINE.smoothed(False)
+
+
+def test_each_service_takes_the_parts_of_its_stage() -> None:
+    opts = parse_run_args(["--video", "clip.mp4", "--fov", "70", "--scale-factor", "1.2",
+                           "--expression-average", "3", "--all-poses", "--model-limit", "5"])
+    assert opts.services["pose"].pose.fov == 70.0
+    assert opts.services["detector"].detect.scale_factor == 1.2
+    assert opts.services["expression"].expression.average == 3
+    assert opts.services["ar"].overlay.all_poses and opts.services["fitter"].model.limit == 5
+    assert "expression" not in parse_run_args(["--video", "x.mp4", "--no-expression"]).services
 
 
 def test_an_output_starts_the_rerun_service() -> None:
@@ -28,9 +44,24 @@ def test_an_output_starts_the_rerun_service() -> None:
     assert "ar" not in parse_run_args(["--video", "clip.mp4", "--no-ar"]).services
 
 
-def test_service_options_are_checked_with_their_ranges() -> None:
-    with pytest.raises(OptionError, match="--fov"):
+def test_options_are_checked_with_their_ranges_and_named_with_their_stage() -> None:
+    with pytest.raises(OptionError, match=r"^--fov 0.0: must be a number from 1 to 179 \(pose "
+                                          r"stage\)$"):
         parse_run_args(["--video", "clip.mp4", "--fov", "0"])
+    with pytest.raises(OptionError, match=r"^--calibration 'c.yaml': give --fov or "
+                                          r"--calibration, not both \(pose stage\)$"):
+        parse_run_args(["--video", "clip.mp4", "--fov", "70", "--calibration", "c.yaml"])
+
+
+def test_the_help_shows_the_common_options_first_then_each_stage() -> None:
+    parser = argparse.ArgumentParser(prog="aamtrack run")
+    add_run_options(parser)
+    text = parser.format_help()
+    titles = [line[:-1] for line in text.splitlines() if line.endswith("options:")]
+    assert titles[:2] == ["options", "common options"]
+    assert titles[2:] == [f"{stage} options" for stage in STAGES]
+    common = text[text.index("common options:"):text.index("model options:")]
+    assert all(flag in common for flag in ("--video", "--profile", "--max-faces", "--rrd"))
 
 
 def test_a_run_needs_an_input() -> None:
@@ -56,24 +87,18 @@ def test_fast_pacing_keeps_every_fit_for_pose_and_expression() -> None:
     # Live: the services' own capacities (a burst is worked off, old fits go).
     assert live["pose"].capacity == PoseOptions().capacity < FAST_CAPACITY
     assert live["expression"].capacity == ExpressionOptions().capacity < FAST_CAPACITY
-    chosen = parse_run_args(["--video", "clip.mp4", "--pace", "fast"])
-    assert chosen.services["fitter"].algorithm == "local-binary"
-    fitting = chosen.services["fitter"].tracking.fitting
-    assert fitting.failure_test == "auto" and fitting.appearance
 
 
 def test_a_profile_sets_each_stage_and_given_options_override_it() -> None:
     thesis = parse_run_args(["--video", "x.mp4", "--profile", "thesis"])
-    fitter, pose = thesis.services["fitter"], thesis.services["pose"]
-    fitting = fitter.tracking.fitting
+    assert pipeline(thesis) == profile_named("thesis").options
+    fitting, pose = thesis.services["fitter"].fit.fitting, thesis.services["pose"].pose
     assert (fitting.algorithm, fitting.failure_test, pose.estimator) == (
         "fixed-jacobian", "eq7.2", "posit")
     assert thesis.launch.profile == "thesis" and fitting.appearance
     mixed = parse_run_args(["--video", "x.mp4", "--profile", "thesis", "--estimator", "contour",
                             "--no-occlusion", "--refine", "2"])
-    assert mixed.services["pose"].estimator == "contour"
-    fitting = mixed.services["fitter"].tracking.fitting
+    assert mixed.services["pose"].pose.estimator == "contour"
+    fitting = mixed.services["fitter"].fit.fitting
     assert fitting.algorithm == "fixed-jacobian"
     assert fitting.occlusion is False and fitting.refine == 2
-    default = parse_run_args(["--video", "x.mp4"])
-    assert default.services["fitter"].config() == TRACKER

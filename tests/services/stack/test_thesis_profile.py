@@ -34,13 +34,12 @@ def test_the_thesis_profile_runs_end_to_end_and_the_library_agrees(
     rec = tmp_path / "thesis.rec"
     opts = stack_options(single_face, ar=False, record=str(rec), warp="cpu", profile="thesis",
                          classifier=None)
-    fitter, pose = opts.services["fitter"], opts.services["pose"]
-    fitting = fitter.tracking.fitting
+    fitting, pose = opts.services["fitter"].fit.fitting, opts.services["pose"].pose
     assert (fitting.algorithm, fitting.failure_test, pose.estimator) == (
         "fixed-jacobian", "eq7.2", "posit")
     opts = prepared(opts)
     # the launcher found (or trained) the thesis classifier of these fits
-    assert opts.services["expression"].classifier == str(thesis_classifier)
+    assert opts.services["expression"].expression.classifier == str(thesis_classifier)
     with Stack(opts) as stack:
         assert stack.wait() == "done"
         summary = stack.summary()
@@ -60,7 +59,7 @@ def test_the_thesis_profile_runs_end_to_end_and_the_library_agrees(
     assert max(f.appearance.iterations for f in with_face) >= 1
     tracker = FaceTracker(model=model_path, classifier=thesis_classifier, profile="thesis",
                           warp="cpu")
-    assert profile_named("thesis").fitter == tracker.config.fitting
+    assert profile_named("thesis").options.fit.fitting == tracker.options.fit.fitting
     # The services run on one BLAS thread: so does the library here, else the AAM's
     # iterations may differ in the last bits (0.004 px seen with two threads).
     with threadpool_limits(limits=1):
