@@ -27,7 +27,7 @@ from aamcore.face_result import NO_FACE, FaceResult, PoseParts, joined_result, r
 from aamcore.fitting.model import FittingModel
 from aamcore.io.video import FALLBACK_FPS, frame_rate
 from aamcore.operators.detect import DetectOperator
-from aamcore.operators.expression import ExpressionOperator
+from aamcore.operators.expression import ExpressionOperator, load_classifier
 from aamcore.operators.faces import FrameRef
 from aamcore.operators.fit import FitOperator
 from aamcore.operators.options import PipelineOptions
@@ -75,13 +75,7 @@ def _classifier(classifier: str | Path | ExpressionClassifier | bool | None,
         if path is None and not options.expression.classifier:
             return None  # a loaded model: no classifier can be trained for it
         classifier = classifier_path(path, options)  # type: ignore[arg-type]
-    if not isinstance(classifier, ExpressionClassifier):
-        classifier = ExpressionClassifier.load(classifier)
-    algorithm = options.fit.fitting.algorithm
-    if path is not None:
-        from aamcore.expression.training import check_made_for, model_fingerprint
-
-        check_made_for(classifier, model_fingerprint(path), algorithm)
+    classifier = load_classifier(classifier, path, options.fit.fitting.algorithm)
     aam = model.aam
     classifier.check_fit(aam.scheme.name, aam.scheme.n_points, aam.n_appearance)
     return classifier

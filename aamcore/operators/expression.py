@@ -4,6 +4,7 @@ each face with its own recogniser (its reference, averaging and label hold)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -60,3 +61,26 @@ class ExpressionOperator:
     def reset(self) -> None:
         """Forget every face (a new run)."""
         self.faces.clear()
+
+
+def load_classifier(classifier: str | Path | ExpressionClassifier, model: str | Path | None = None,
+                    algorithm: str | None = None) -> ExpressionClassifier:
+    """The classifier of file ``classifier`` (or the one given), refused when it was made for
+    the fits of another fitting model than the file ``model`` (fingerprint), or of another
+    algorithm than ``algorithm`` (when given).
+
+    Raises
+    ------
+    ClassifierFileError, AAMMismatchError, OSError
+        For a file that cannot be read or is of another format or feature version, or a
+        classifier made for other fits.
+    """
+    from aamcore.expression.training import check_made_for, model_fingerprint
+
+    if not isinstance(classifier, ExpressionClassifier):
+        classifier = ExpressionClassifier.load(classifier)
+    if model and algorithm:
+        check_made_for(classifier, model_fingerprint(model), algorithm)
+    elif model:
+        classifier.check_aam(model_fingerprint(model))
+    return classifier

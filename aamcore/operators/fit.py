@@ -3,6 +3,8 @@ occlusion flags, tracked from frame to frame under stable ids and smoothed per f
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 from aamcore.detection.haar import HaarFaceDetector
@@ -78,6 +80,25 @@ class FitOperator:
         if self.options.landmark_smoothing:
             fit = smoother.smoothed(fit, frame.t)  # a failed fit (or none) restarts it
         return FaceFit.of(face_id, fit, self.scheme)  # type: ignore[arg-type]
+
+    def warm_up(self) -> None:
+        """Fit once on a blank frame, and warp it once where the fitter warps, so that the
+        first real frame pays no set-up costs (the GL context, shaders and textures,
+        first-call allocations); the warm-up's warps are not counted."""
+        fitter, warp = self.fitter, self.warp
+        blank = np.full((480, 640, 3), 128, np.uint8)
+        box = np.array([220.0, 140.0, 200.0, 200.0])
+        try:
+            if fitter.warps:
+                warp.start()
+                start = fitter.mapping.place(box, "detector")
+                warp.warp(fitter.aam.prepare_image(blank, start), start)
+            fitter.fit_box(blank, box)
+        except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
+            logging.getLogger("aamtrack.fit").debug("warm-up fit failed: %s", exc)
+        warp.counts = dict.fromkeys(warp.counts, 0)
+        warp.seconds = dict.fromkeys(warp.seconds, 0.0)
+        warp.take_path()
 
     def search_with(self, detector: FaceDetector) -> None:
         """Search for faces with ``detector`` from now on."""

@@ -14,12 +14,36 @@ from __future__ import annotations
 
 import collections
 import math
+import re
 import threading
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from proto import Header
+
+
+class ReasonCounts:
+    """What a service could not answer as asked, counted by the short key of the reason
+    (the text before its first colon, numbers as ``#``), and the last reason with its
+    frame."""
+
+    def __init__(self) -> None:
+        self.counts: collections.Counter[str] = collections.Counter()
+        self.last = ""
+
+    def add(self, reason: str, frame_index: int | None = None) -> None:
+        key = re.sub(r"\d+", "#", reason.split(":", 1)[0]).strip()[:60]
+        self.counts[key] += 1
+        self.last = reason if frame_index is None else f"frame {frame_index}: {reason}"
+
+    def total(self) -> int:
+        return sum(self.counts.values())
+
+    def line(self) -> str:
+        """``"2 no face, 1 face in profile"``: the six most common."""
+        return ", ".join(f"{n} {key}" for key, n in self.counts.most_common(6))
+
 
 LATENCY_WINDOW = 300
 """Latencies kept for the status percentiles (about 10 s of video)."""

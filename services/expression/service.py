@@ -18,7 +18,6 @@ fits of another landmark scheme or AAM arrive.
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Sequence
 from dataclasses import replace
 
@@ -26,18 +25,17 @@ import numpy as np
 
 from aamcore.expression import AAMMismatchError, ClassifierFileError, ExpressionClassifier
 from aamcore.expression.crop import grey as crop_grey
-from aamcore.expression.quality import reason_key
-from aamcore.expression.recogniser import Recognition
-from aamcore.expression.training import check_made_for, model_fingerprint
 from aamcore.operators.expression import ExpressionOperator
+from aamcore.operators.expression import load_classifier as checked_classifier
 from proto import Expression, Fit, Frame, ProtoError
 from services.bus.args import parse_service_args
 from services.bus.images import image_of
 from services.bus.inbox import Received, Recent
 from services.bus.process import init_process
 from services.bus.session import Service
+from services.bus.stats import ReasonCounts
 from services.expression.options import ExpressionOptions
-from services.messages import face_of, frame_of
+from services.messages import expression_message, face_of, frame_of, unlabelled
 
 NAME = "expression"
 FRAMES_KEPT = 64
@@ -48,67 +46,30 @@ MAX_FRAMES_KEPT = 256
 of 1280 x 720. A fast-paced run keeps 1,024 fits while busy; before this bound it kept a
 frame for each, raw and decoded (1.4 MB each): 1.6 GB. A fit whose frame was pushed out is
 counted as dropped (``no frame``)."""
-MAX_REASON = 512
-"""Characters of a reason kept in the message (the contract allows 1024 bytes)."""
 FRAME_WAIT_S = 0.5
 """How long a fit waits for its frame: the source's frame and the fitter's fit travel apart."""
 
 
 def load_classifier(path: str | None, model: str | None, algorithm: str | None = None
                     ) -> tuple[ExpressionClassifier | None, str]:
-    """The classifier, or ``None`` and why there is none.
-
-    A classifier is refused when its file is unreadable or of another format
-    or feature version, or when it was made for the fits of another fitting
-    model than ``model`` (fingerprint), or of another algorithm than
-    ``algorithm`` (when given).
-    """
+    """The classifier (:func:`aamcore.operators.expression.load_classifier`), or ``None``
+    and why there is none."""
     if not path:
         return None, "no expression classifier given (--classifier)"
     try:
-        classifier = ExpressionClassifier.load(path)
-        if model and algorithm:
-            check_made_for(classifier, model_fingerprint(model), algorithm)
-        elif model:
-            classifier.check_aam(model_fingerprint(model))
+        return checked_classifier(path, model, algorithm), ""
     except (ClassifierFileError, AAMMismatchError, OSError) as exc:
         return None, f"no expression classifier: {exc}"
-    return classifier, ""
 
 
-class Unclassified:
+class Unclassified(ReasonCounts):
     """The status line's counts of the fits without expression, by the key of their reason."""
 
-    def __init__(self) -> None:
-        self.reasons: Counter[str] = Counter()
-        self.last = ""
-
-    def add(self, frame_index: int, reason: str) -> None:
-        self.reasons[reason_key(reason)] += 1
-        self.last = f"frame {frame_index}: {reason}"
-
-    def line(self) -> str:
+    def status(self) -> str:
         """``"5 fits without expression: 3 no face, 2 face in profile; last: frame 9: ..."``"""
-        total = sum(self.reasons.values())
-        if not total:
+        if not self.total():
             return "every fit with an expression"
-        counts = ", ".join(f"{n} {key}" for key, n in self.reasons.most_common(6))
-        return f"{total} fits without expression: {counts}; last {self.last}"
-
-
-def expression_message(svc: Service, fit: Fit, found: Recognition) -> Expression:
-    """The message of a fit: its label and probabilities, or no label and the reason."""
-    if found.label is None or found.scores is None:
-        return unlabelled(svc, fit, found.reason or "not classified", found.class_names)
-    return Expression(svc.header_for(fit), found.label, found.class_names,
-                      found.scores.astype(np.float32), found.smoothed, "", fit.face_id)
-
-
-def unlabelled(svc: Service, fit: Fit, reason: str, class_names: tuple[str, ...] = ()
-               ) -> Expression:
-    """The answer to a fit without expression: no label, the reason."""
-    return Expression(svc.header_for(fit), "", class_names, np.zeros(0, np.float32), False,
-                      reason[:MAX_REASON], fit.face_id)
+        return f"{self.total()} fits without expression: {self.line()}; last {self.last}"
 
 
 def grey_frame(got: Received) -> Received:
@@ -132,7 +93,7 @@ def answer(svc: Service, op: ExpressionOperator, fit: Fit, frames: Recent,
     if frame is None and len(fit.landmarks):
         svc.stats.dropped += 1  # its frame is gone: never received or pushed out
         reason = "no frame: it was not received in time"
-        unclassified.add(h.frame_index, reason)
+        unclassified.add(reason, h.frame_index)
         return unlabelled(svc, fit, reason, op.class_names)
     try:
         image = image_of(frame.message) if frame is not None else np.zeros((1, 1), np.uint8)
@@ -145,7 +106,7 @@ def answer(svc: Service, op: ExpressionOperator, fit: Fit, frames: Recent,
         svc.reject("fit", f"not classified: {exc}")
         return unlabelled(svc, fit, f"not classified: {exc}")
     if not found.ok:
-        unclassified.add(h.frame_index, found.reason)
+        unclassified.add(found.reason, h.frame_index)
     return expression_message(svc, fit, found)
 
 
@@ -174,7 +135,7 @@ def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
             op.reset()
         svc.publish(answer(svc, op, fit, frames, unclassified))
         if svc.state != "degraded":
-            svc.set_state("running", unclassified.line())
+            svc.set_state("running", unclassified.status())
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -11,29 +11,19 @@ refuses (counted as dropped); the status line counts each reason.
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Sequence
 
-from aamcore.operators.faces import FacePose
 from aamcore.operators.pose import PoseOperator
 from aamcore.pose import IntrinsicsError, PoseError
-from aamcore.pose.reliability import reason_key
-from proto import Fit, HeadPose, ProtoError
+from proto import Fit, ProtoError
 from services.bus.args import parse_service_args
 from services.bus.process import init_process
 from services.bus.session import Service
-from services.messages import face_of, frame_of
+from services.bus.stats import ReasonCounts
+from services.messages import face_of, frame_of, pose_message
 from services.pose.options import PoseOptions
 
 NAME = "pose"
-
-
-def pose_message(svc: Service, fit: Fit, pose: FacePose) -> HeadPose:
-    """The message of the pose of one fit."""
-    roll, pitch, yaw = pose.angles_deg
-    return HeadPose(svc.header_for(fit), pose.rotation, pose.translation_mm, roll, pitch, yaw,
-                    pose.K, fit.image_width, fit.image_height, pose.camera, pose.iterations,
-                    pose.reliable, pose.reason, pose.angle_sd_deg, fit.face_id)
 
 
 class PoseCounts:
@@ -42,8 +32,7 @@ class PoseCounts:
 
     def __init__(self) -> None:
         self.no_face = 0
-        self.unreliable: Counter[str] = Counter()
-        self.no_pose: Counter[str] = Counter()
+        self.unreliable, self.no_pose = ReasonCounts(), ReasonCounts()
 
     def line(self, refinements: int | None = None) -> str:
         """``"2 fits without a face; unreliable: 3 profile; no pose: 1 mostly out of ..."``,
@@ -51,10 +40,8 @@ class PoseCounts:
         parts = [f"{self.no_face} fits without a face"]
         if refinements is not None:
             parts.append(f"head model refined {refinements} times")
-        for name, counts in (("unreliable", self.unreliable), ("no pose", self.no_pose)):
-            if counts:
-                parts.append(f"{name}: " + ", ".join(f"{n} {k}" for k, n in
-                                                     counts.most_common(6)))
+        parts += [f"{name}: {counts.line()}" for name, counts in
+                  (("unreliable", self.unreliable), ("no pose", self.no_pose)) if counts.total()]
         return "; ".join(parts)
 
 
@@ -65,17 +52,17 @@ def answer(svc: Service, fit: Fit, op: PoseOperator, counts: PoseCounts) -> None
     if not len(fit.landmarks):
         counts.no_face += 1
     elif not pose.found:
-        counts.no_pose[reason_key(pose.reason)] += 1
+        counts.no_pose.add(pose.reason)
         svc.stats.dropped += 1  # no pose can be had from these landmarks: none is owed
     else:
         try:
             svc.publish(pose_message(svc, fit, pose))
         except ProtoError as exc:
-            counts.no_pose[reason_key(str(exc))] += 1
+            counts.no_pose.add(str(exc))
             svc.stats.dropped += 1
             return
         if not pose.reliable:
-            counts.unreliable[reason_key(pose.reason)] += 1
+            counts.unreliable.add(pose.reason)
 
 
 def serve(svc: Service, op: PoseOperator, capacity: int) -> None:

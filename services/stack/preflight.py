@@ -136,16 +136,13 @@ def check_classifier(expression: Any, fitter: Any) -> None:
     """The classifier loads and was made for the fits of the fitter's model and algorithm."""
     if expression is None or not expression.expression.classifier:
         return
-    from aamcore.expression import AAMMismatchError, ClassifierFileError, ExpressionClassifier
-    from aamcore.expression.training import check_made_for, model_fingerprint
+    from aamcore.expression import AAMMismatchError, ClassifierFileError
+    from aamcore.operators.expression import load_classifier
 
+    model = expression.fitting_model or (fitter.model.file if fitter is not None else None)
     try:
-        classifier = ExpressionClassifier.load(expression.expression.classifier)
-        model = expression.fitting_model or (fitter.model.file if fitter is not None else None)
-        if model and fitter is not None:
-            check_made_for(classifier, model_fingerprint(model), fitter.algorithm)
-        elif model:
-            classifier.check_aam(model_fingerprint(model))
+        load_classifier(expression.expression.classifier, model,
+                        fitter.algorithm if fitter is not None else None)
     except (ClassifierFileError, AAMMismatchError, OSError) as exc:
         raise PreflightError(f"--classifier: {exc}") from None
 

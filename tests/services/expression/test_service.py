@@ -28,8 +28,8 @@ from services.bus.connection import BusOptions
 from services.bus.options import options_argv
 from services.bus.qos import MUST_ARRIVE
 from services.bus.session import Service
-from services.expression.service import Unclassified, expression_message, load_classifier
-from services.messages import face_of, frame_of
+from services.expression.service import Unclassified, load_classifier
+from services.messages import expression_message, face_of, frame_of
 
 Stream = list[tuple[str, Frame, Fit]]
 
@@ -114,11 +114,11 @@ def test_every_frame_of_a_stream_is_classified_from_the_first(
 
 def test_the_status_line_counts_the_reasons() -> None:
     counts = Unclassified()
-    assert counts.line() == "every fit with an expression"
-    counts.add(3, "no face")
-    counts.add(4, "face in profile: turned about 50 degrees (at most 35)")
-    counts.add(5, "no face")
-    assert counts.line() == ("3 fits without expression: 2 no face, 1 face in profile; "
+    assert counts.status() == "every fit with an expression"
+    counts.add("no face", 3)
+    counts.add("face in profile: turned about 50 degrees (at most 35)", 4)
+    counts.add("no face", 5)
+    assert counts.status() == ("3 fits without expression: 2 no face, 1 face in profile; "
                              "last frame 5: no face")
 
 

@@ -23,7 +23,8 @@ from aamcore.warp.reference_frame import ReferenceFrame
 from proto import Header, decode, encode
 from services.bus.connection import BusOptions
 from services.bus.session import Service
-from services.fitter.service import ServiceDetector, fit_message, warm_up
+from services.detector.client import ServiceDetector
+from services.messages import fit_message
 
 TEXTURE_MEAN_TOLERANCE = 0.5
 """Largest mean difference in grey levels between the GPU's and the CPU's texture of one
@@ -90,11 +91,11 @@ def test_the_default_method_samples_its_appearance_without_the_gl_worker(
 def test_the_gl_worker_starts_only_when_something_warps(model_path: Path) -> None:
     model = FittingModel.load(model_path)
     op = FitOperator(model, PIPELINE.fit.with_values(warp="gpu", appearance=False))
-    warm_up(op)
+    op.warm_up()
     assert not op.fitter.warps and not op.warp.started and op.warp.path == "none"
     op = FitOperator(model, PIPELINE.fit.with_values(warp="gpu"))
     try:
-        warm_up(op)
+        op.warm_up()
         assert op.fitter.warps and op.warp.started and op.warp.path == "gpu"
         assert op.warp.counts == {"gpu": 0, "cpu": 0}  # the warm-up's warps are not counted
     finally:

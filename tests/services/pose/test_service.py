@@ -17,14 +17,13 @@ from aamcore.operators.faces import FacePose
 from aamcore.operators.options import PIPELINE
 from aamcore.operators.pose import PoseOperator
 from aamcore.pose.estimator import Cameras
-from aamcore.pose.reliability import reason_key
 from proto import Fit, Header, HeadPose, decode, encode
 from services.bus.connection import BusOptions
 from services.bus.options import OptionError, options_from
 from services.bus.session import Service
-from services.messages import face_of, frame_of
+from services.messages import face_of, frame_of, pose_message
 from services.pose.options import PoseOptions
-from services.pose.service import PoseCounts, pose_message
+from services.pose.service import PoseCounts
 from services.stack.launcher import Stack
 from services.stack.options import StackOptions
 from services.stack.recorder import load_messages
@@ -148,8 +147,9 @@ def test_the_status_line_counts_reasons() -> None:
     counts = PoseCounts()
     counts.no_face = 2
     assert counts.line() == "2 fits without a face"
-    counts.unreliable[reason_key("profile: yaw +80 deg")] += 3
-    counts.no_pose[reason_key("mostly out of the frame: only 2 inner landmarks")] += 1
+    for _ in range(3):
+        counts.unreliable.add("profile: yaw +80 deg")
+    counts.no_pose.add("mostly out of the frame: only 2 inner landmarks")
     assert counts.line() == ("2 fits without a face; unreliable: 3 profile; "
                              "no pose: 1 mostly out of the frame")
     assert counts.line(4).startswith("2 fits without a face; head model refined 4 times; ")

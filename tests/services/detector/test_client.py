@@ -1,4 +1,4 @@
-"""services.fitter.detector_client: boxes from the detector service, and a local fall-back that
+"""services.detector.client: boxes from the detector service, and a local fall-back that
 searches as that service does."""
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from proto.keys import detect_key
 from services.bus.connection import BusOptions
 from services.bus.options import options_argv
 from services.bus.session import Service
-from services.fitter.detector_client import ServiceDetector
+from services.detector.client import ServiceDetector
 from tests.services.fitter.test_service import frames
 
 OPTIONS = ["--scale-factor", "1.2", "--min-neighbors", "7", "--min-size", "60",
