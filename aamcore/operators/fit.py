@@ -4,6 +4,7 @@ occlusion flags, tracked from frame to frame under stable ids and smoothed per f
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 
 import numpy as np
 
@@ -16,7 +17,7 @@ from aamcore.fitting.warps import FitterWarp
 from aamcore.operators.faces import NOBODY, FaceFit, FrameRef
 from aamcore.operators.options import PIPELINE, FitOptions
 from aamcore.operators.per_face import PerFace
-from aamcore.smoothing import LandmarkSmoother
+from aamcore.smoothing import LANDMARKS, LandmarkSmoother
 
 
 class FitOperator:
@@ -48,7 +49,8 @@ class FitOperator:
         self.fitter = Fitter(model, options.fitting, self.warp)
         self.tracker = MultiTracker.configured(self.fitter, options,
                                                detector or HaarFaceDetector())
-        self.faces = PerFace(LandmarkSmoother, LandmarkSmoother.reset,
+        smoothing = replace(LANDMARKS, min_cutoff=options.landmark_cutoff)
+        self.faces = PerFace(lambda: LandmarkSmoother(smoothing), LandmarkSmoother.reset,
                              forget_frames=options.new_faces.forget_frames,
                              lost=LandmarkSmoother.reset)
         self.warp_path = "none"

@@ -119,6 +119,9 @@ class FitOptions(Settings):
                         "else the CPU), gpu (falls back to cpu) or cpu", choices=WARPS)
     landmark_smoothing: bool = setting(True, "smooth each face's landmarks over time (One "
                                        "Euro filter)")
+    landmark_cutoff: float = setting(0.5, "the landmark smoothing's cut-off at rest, Hz: lower "
+                                     "is steadier, and lags more", above=0, high=30,
+                                     metavar="HZ")
 
 
 @dataclass(frozen=True)
