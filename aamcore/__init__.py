@@ -8,8 +8,9 @@ The one-call API (loaded on first use, so that ``import aamcore`` stays light)::
 
 The stages, one package each (see ARCHITECTURE.md): ``io`` (datasets, images,
 video, per-frame results), ``detection``, ``model``, ``warp``, ``fitting``,
-``pose``, ``expression``, ``ar``, ``evaluation``, ``synth``; ``smoothing`` and
-``tracker`` (the API) on top; ``defaults`` and ``config`` for settings.
+``pose``, ``expression``, ``ar``, ``evaluation``, ``synth``; ``operators`` (each stage as
+one operator, and the options tree, a part per stage), ``smoothing`` and ``tracker`` (the
+API: the operators' chain) on top; ``defaults`` and ``config`` for settings.
 """
 
 from __future__ import annotations
@@ -17,10 +18,14 @@ from __future__ import annotations
 from typing import Any
 
 __version__ = "0.2.0"
-__all__ = ["FaceResult", "FaceTracker"]
+__all__ = ["FaceResult", "FaceTracker", "PipelineOptions"]
 
 
 def __getattr__(name: str) -> Any:
+    if name == "PipelineOptions":
+        from aamcore.operators.options import PipelineOptions
+
+        return PipelineOptions
     if name in __all__:
         from aamcore import tracker
 
