@@ -117,7 +117,7 @@ def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
     if classifier is not None:
         frames = svc.recent("frame", min(max(FRAMES_KEPT, opts.capacity + 16), MAX_FRAMES_KEPT),
                             grey_frame)
-        op = ExpressionOperator(classifier, opts.expression)
+        op = ExpressionOperator(classifier, opts.expression, opts.new_faces.forget_frames)
         svc.ready(f"{classifier.kind}, classes {','.join(classifier.class_names)}")
     else:
         svc.log.error("%s; running without expressions", why)

@@ -84,7 +84,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_service_args(NAME, "Head pose from each fit.", PoseOptions, argv)
     log = init_process(NAME, args.verbose)
     try:
-        op = PoseOperator(args.options.pose)
+        op = PoseOperator(args.options.pose, args.options.new_faces.forget_frames)
     except (PoseError, IntrinsicsError, OSError) as exc:
         log.error("cannot set up head pose: %s", exc)
         return 1

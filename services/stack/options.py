@@ -200,9 +200,12 @@ def stack_options(args: argparse.Namespace, base: StackOptions | None = None) ->
 
 
 def with_stages(options: Options, tree: PipelineOptions) -> Any:
-    """A service's options with the parts of the options tree its stage takes."""
+    """A service's options with the parts of the options tree its stage takes (and the fit
+    stage's rule for keeping faces, which every per-face state follows)."""
     parts = {f.name: getattr(tree, f.name) for f in dataclasses.fields(options)
              if f.name in STAGES and "group" in f.metadata}
+    if any(f.name == "new_faces" for f in dataclasses.fields(options)):
+        parts["new_faces"] = tree.fit.new_faces
     return options.replace(**parts) if parts else options
 
 

@@ -102,3 +102,11 @@ def test_a_profile_sets_each_stage_and_given_options_override_it() -> None:
     fitting = mixed.services["fitter"].fit.fitting
     assert fitting.algorithm == "fixed-jacobian"
     assert fitting.occlusion is False and fitting.refine == 2
+
+
+def test_every_stage_keeps_faces_by_the_fit_stages_rule() -> None:
+    opts = parse_run_args(["--video", "x.mp4", "--max-faces", "3", "--new-faces-hidden-frames",
+                           "30"])
+    assert opts.services["fitter"].fit.new_faces.hidden_frames == 30
+    assert opts.services["pose"].new_faces.hidden_frames == 30
+    assert opts.services["expression"].new_faces.hidden_frames == 30
