@@ -47,11 +47,19 @@ class OverlayOperator:
         out = np.array(image, np.uint8, copy=True)
         for pose in poses:
             if self.draws(pose):
-                renderer = self._renderer(out.shape[1], out.shape[0])
+                renderer = self.renderer(out.shape[1], out.shape[0])
                 out = renderer.render(out, pose.rotation, pose.translation_mm, pose.K)
         return out
 
-    def _renderer(self, width: int, height: int) -> Any:
+    def renderer(self, width: int, height: int) -> Any:
+        """The renderer of frames of ``width`` x ``height`` (made, with the context, at the
+        first call).
+
+        Raises
+        ------
+        Exception
+            When no OpenGL context can be made.
+        """
         renderer = self._renderers.get((width, height))
         if renderer is None:
             from aamcore.ar.renderer import GlassesRenderer

@@ -244,7 +244,9 @@ def options_of_mapping(cls: type[Settings], data: dict[str, Any], where: str,
         name = key.replace("-", "_")
         if name not in entries:
             close = difflib.get_close_matches(name, entries, 1)
-            hint = f"did you mean {close[0].replace('_', '-')}? " if close else ""
+            stage = f" ({entries[close[0]].stage} stage)" if close and entries[
+                close[0]].stage else ""
+            hint = f"did you mean {close[0].replace('_', '-')}{stage}? " if close else ""
             raise OptionError(f"{where}: unknown option {key!r}; {hint}options are "
                               f"{', '.join(sorted({s.name for s in entries.values()}))}",
                               name)
