@@ -6,15 +6,18 @@ the contract (:mod:`proto`)."""
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from aamcore.expression.recogniser import Recognition
 from aamcore.fitting.result import AAMFit
 from aamcore.operators.faces import FaceFit, FacePose, FrameRef
-from aamcore.warp.reference_frame import ReferenceFrame
 from proto import Expression, Fit, FitAppearance, Header, HeadPose
-from services.bus.session import Service
+
+if TYPE_CHECKING:  # each service loads only what its own stage needs
+    from aamcore.expression.recogniser import Recognition
+    from aamcore.warp.reference_frame import ReferenceFrame
+    from services.bus.session import Service
 
 EMPTY_POINTS = np.zeros((0, 2), np.float32)
 EMPTY = np.zeros(0, np.float32)
