@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 import msgpack
+import numpy as np
 
 from proto.fields import check_keys, type_name
 from proto.header import Header, read_kind
@@ -25,6 +26,9 @@ from proto.messages import MESSAGE_TYPES, Message
 
 IMAGE_KINDS = ("frame", "overlay")
 TOP_KEYS = ("header", "body")
+Buffer = bytes | bytearray | memoryview
+"""Bytes as they lie: a part of a payload."""
+_EMPTY_BIN = b"\xc4\x00"
 
 
 def payload_limit(kind: str | None) -> int:
@@ -40,6 +44,59 @@ def encode(msg: Message) -> bytes:
     """
     wire = {"header": msg.header.to_dict(msg.KIND), "body": msg.to_dict()}
     return msgpack.packb(wire, use_bin_type=True)
+
+
+def encode_parts(msg: Message) -> list[Buffer]:
+    """:func:`encode` in parts whose concatenation is the payload: an image message's pixels
+    (or JPEG bytes), the payload's tail, are the last part, left where they lie (the
+    ``bytes`` or ``bytearray`` an array views, else a view of the array), so that a sender
+    copies them once, into shared memory or onto the network."""
+    body = body_parts(msg)
+    head = msgpack.packb({"header": msg.header.to_dict(msg.KIND), "body": None},
+                         use_bin_type=True)[:-1]  # without the nil that stands for the body
+    return [head + body[0], *body[1:]]
+
+
+def body_parts(msg: Message) -> list[Buffer]:
+    """The body map's bytes in parts: an image message's tail (its pixels or JPEG bytes)
+    apart from the rest; any other kind in one part."""
+    body = msg.to_dict()
+    image = body.get("image") if msg.KIND in IMAGE_KINDS else None
+    if image is None:
+        return [msgpack.packb(body, use_bin_type=True)]
+    if isinstance(image, dict):
+        tail, body["image"] = image["data"], {**image, "data": b""}
+    else:
+        tail, body["image"] = image, b""
+    packed = msgpack.packb(body, use_bin_type=True)
+    assert packed.endswith(_EMPTY_BIN), "the image data is the body's last entry"
+    data = _lying(tail, getattr(msg, "image", None))
+    return [packed[:-len(_EMPTY_BIN)] + _bin_header(memoryview(data).nbytes), data]
+
+
+def _bin_header(size: int) -> bytes:
+    """msgpack's header of a bin of ``size`` bytes (the smallest format, as msgpack packs)."""
+    if size < 1 << 8:
+        return b"\xc4" + size.to_bytes(1, "big")
+    if size < 1 << 16:
+        return b"\xc5" + size.to_bytes(2, "big")
+    return b"\xc6" + size.to_bytes(4, "big")
+
+
+def _lying(data: Buffer, image: object) -> Buffer:
+    """The bytes an image's data lies in: the ``bytes`` or ``bytearray`` a C-contiguous array
+    views from its start to its end, else ``data`` itself."""
+    if not isinstance(image, np.ndarray) or not image.flags.c_contiguous:
+        return data
+    owner = image
+    while isinstance(owner, np.ndarray):
+        owner = owner.base
+    if isinstance(owner, memoryview):
+        owner = owner.obj
+    if (isinstance(owner, bytes | bytearray) and len(owner) == image.nbytes
+            and np.frombuffer(owner, np.uint8).ctypes.data == image.ctypes.data):
+        return owner
+    return data
 
 
 def _unpack(payload: bytes | bytearray | memoryview, limit: int) -> Any:
