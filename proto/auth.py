@@ -152,6 +152,11 @@ class Keyring:
         """``message`` encoded and signed with the signer's key."""
         return encode_signed(self.keys[self.signer], message)
 
+    def encode_parts(self, message: Message) -> list[Buffer]:
+        """:meth:`encode` in parts, an image's pixels left where they lie
+        (:func:`encode_signed_parts`)."""
+        return encode_signed_parts(self.keys[self.signer], message)
+
     def problem(self, payload: bytes | memoryview, message: Message) -> str:
         """Why ``message`` is not vouched for by its producer (``""`` when it is)."""
         key = self.keys.get(message.header.producer)

@@ -3,7 +3,8 @@
 ``aamtrack service ar [--jpeg Q] [--all-poses]``
 
 For each reliable ``HeadPose`` the service takes the frame it belongs to
-(the latest few frames are kept; with several faces, the frame as drawn for its
+(frames are kept until a pose of a later frame comes,
+:class:`services.bus.frames.FrameStore`; with several faces, the frame as drawn for its
 faces so far, so that each overlay of a frame has the glasses of every face
 drawn before it and the last has them all), renders the glasses with
 :class:`~aamcore.ar.renderer.GlassesRenderer` at the pose and intrinsics of
@@ -30,7 +31,6 @@ from services.bus.process import init_process
 from services.bus.session import Service
 
 NAME = "ar"
-FRAMES_KEPT = 8
 FRAME_WAIT_S = 0.05
 """Longest wait for the frame of a pose that came before it."""
 
@@ -113,7 +113,7 @@ def draw(svc: Service, compositor: Compositor, pose: HeadPose, frame: Frame, jpe
 
 def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
     """Render overlays until stopped."""
-    frames = svc.recent("frame", FRAMES_KEPT)
+    frames = svc.frame_store()
     unreliable = without_frame = 0
     drawn = Drawn()
     poses = svc.messages("pose", capacity=opts.capacity)
@@ -121,6 +121,7 @@ def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
     for got in poses:
         pose = got.message
         assert isinstance(pose, HeadPose)
+        frames.forget_before(pose.header.run_id, pose.header.frame_index)
         if not (pose.reliable or opts.all_poses):
             unreliable += 1
         # The frame and its pose come from different publishers: the pose may come first.

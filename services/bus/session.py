@@ -25,6 +25,7 @@ from typing import Any
 
 from proto import Header, Message, Status, encode
 from proto.auth import Keyring
+from proto.codec import IMAGE_KINDS, encode_parts
 from proto.keys import alive_key, check_name, topic_key
 from proto.messages import STATES
 from services.bus.connection import BusOptions
@@ -34,6 +35,7 @@ from services.bus.presence import Presence
 from services.bus.process import ENV_RESTARTS, StopWatch
 from services.bus.qos import MUST_ARRIVE, TOPIC_QOS, QoS
 from services.bus.receiving import Receiving
+from services.bus.shm import SharedImages
 from services.bus.stats import ServiceStats
 from services.bus.trust import inherited, read_keys_file
 
@@ -88,6 +90,8 @@ class Service(Receiving, Presence):
             self.keyring = Keyring(self.keyring.keys)  # checks only: the keys are another's
         self.screen = Screen(self.stream, self.run_id, self.stats, self.reject, self.keyring,
                              self.restarts > 0)
+        self.images: SharedImages | None = None
+        """Where the service's image messages are written (:meth:`share_images`)."""
         self.stop_hooks: list[Callable[[], None]] = []
         """Called (in the stopping thread) when the service is asked to stop."""
         self._status_period = status_period
@@ -224,13 +228,27 @@ class Service(Receiving, Presence):
 
     def publish(self, message: Message, count: bool = True) -> None:
         """Encode ``message`` (signed: :meth:`encode`) and put it on its key with its
-        topic's QoS."""
-        self.put(message.key(), self.encode(message), TOPIC_QOS.get(message.KIND, QoS()))
+        topic's QoS; an image written once into the service's shared memory when it has
+        some (:attr:`images`)."""
+        if self.images is not None and message.KIND in IMAGE_KINDS:
+            parts = (self.keyring.encode_parts(message) if self.keyring.signer
+                     else encode_parts(message))
+            payload: Any = self.images.payload(parts)
+        else:
+            payload = self.encode(message)
+        self.put(message.key(), payload, TOPIC_QOS.get(message.KIND, QoS()))
         if count:
             self.stats.frames_out += 1
 
-    def put(self, key: str, payload: bytes, qos: QoS | None = None) -> None:
-        """Put raw bytes on ``key`` through a publisher declared once per key (with ``qos``).
+    def share_images(self, pool_mb: float) -> SharedImages:
+        """Write this service's frames or overlays once into a shared-memory pool of
+        ``pool_mb`` MiB (0: over the network); see :mod:`services.bus.shm`."""
+        self.images = SharedImages(pool_mb, self.log)
+        return self.images
+
+    def put(self, key: str, payload: Any, qos: QoS | None = None) -> None:
+        """Put a payload (bytes or ``zenoh.ZBytes``) on ``key`` through a publisher declared
+        once per key (with ``qos``).
 
         Once the service is closed (a callback thread may still answer while it
         stops) nothing is sent.

@@ -105,7 +105,8 @@ def publish_frames(svc: Service, video: VideoInput, opts: SourceOptions) -> tupl
     clock = MediaClock(video)
     size = (video.width, video.height)
     count = 0
-    for image in video.frames():
+    images = svc.share_images(opts.shm_pool)
+    for image in video.frames(in_place=True):
         if svc.stopping:
             return count, "stopped"
         problem = frame_problem(image, size)
@@ -120,6 +121,7 @@ def publish_frames(svc: Service, video: VideoInput, opts: SourceOptions) -> tupl
         svc.stats.count_in()
         svc.stats.last_frame = count
         svc.stats.latency.add(1000 * (time.perf_counter() - started))
+        svc.set_state("running", f"{video.spec.describe()}: {images.line()}")
         count += 1
         if opts.max_frames and count >= opts.max_frames:
             break
@@ -156,7 +158,7 @@ def serve(svc: Service, opts: SourceOptions) -> int:
             svc.set_state("failed", str(exc))
             publish_eos(svc, svc.stats.frames_out, f"error: {exc}")
             return 1
-    svc.set_state("stopping", reason)
+    svc.set_state("stopping", f"{reason}; {svc.images.line()}" if svc.images else reason)
     publish_eos(svc, count, reason)
     return 0
 

@@ -1,0 +1,124 @@
+"""Images written once into Zenoh shared memory; over the network where it cannot be.
+
+A frame or overlay is the largest message on the bus (691 KB at 640 x 360). Its producer
+writes it once into a buffer of its own Zenoh shared-memory pool (:class:`SharedImages`):
+the payload's small head, then the pixels, copied from where they were decoded or rendered
+(:func:`proto.codec.encode_parts`), hashed there for the signature. Subscribers on the host
+receive that buffer itself; across hosts Zenoh sends the same bytes over the network.
+
+Where shared memory is missing, full (its readers still hold every buffer of the pool) or
+too small for the message, the message goes over the network as any other: the run goes on
+with one warning line per reason, and each such image is counted (:meth:`line`, in the
+producer's status and the run's summary). The producer never waits for a buffer: a reader
+that holds buffers too long costs it shared memory, never time. Zenoh removes a pool's
+segment when its process ends, and the segments of killed processes when the next pool is
+made (its orphaned-segment clean-up: no process has them open).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import Counter
+from collections.abc import Sequence
+from typing import Any
+
+from proto.codec import Buffer
+
+POOL_MB = 32
+"""Default pool: 48 frames of 640 x 360, 12 of 1280 x 720."""
+REASONS = ("unavailable", "full", "too small")
+"""Why an image went over the network, as counted."""
+
+
+class SharedImages:
+    """A producer's pool of shared memory for its image messages, made on first use.
+
+    Parameters
+    ----------
+    pool_mb : float
+        Size of the pool in MiB; 0: no shared memory (every image over the network, not
+        counted as a fall-back: it was asked for).
+    log : logging.Logger
+    """
+
+    def __init__(self, pool_mb: float, log: logging.Logger) -> None:
+        self.pool_bytes = int(pool_mb * 1024 * 1024)
+        self.log = log
+        self.shared = 0
+        """Images written into shared memory."""
+        self.network: Counter[str] = Counter()
+        """Images sent over the network, by reason (:data:`REASONS`, or ``off``)."""
+        self.copied = 0
+        """Images whose pixels were not in a ``bytes`` or ``bytearray``: copied once more."""
+        self._provider: Any = None
+        self._policy: Any = None
+        self._unavailable = self.pool_bytes <= 0
+
+    def payload(self, parts: Sequence[Buffer]) -> Any:
+        """What to put for a payload made of ``parts``: a shared-memory buffer holding them
+        (``zenoh.ZBytes``), else their bytes."""
+        size = sum(memoryview(p).nbytes for p in parts)
+        buffer = self._alloc(size)
+        if buffer is None:
+            return b"".join(parts)
+        start = 0
+        for part in parts:
+            if not isinstance(part, bytes | bytearray):
+                part = bytes(part)  # the buffer takes only these (zenoh-python's abi3 wheel)
+                self.copied += 1
+            buffer[start:start + len(part)] = part
+            start += len(part)
+        self.shared += 1
+        import zenoh
+
+        return zenoh.ZBytes(buffer)
+
+    def _alloc(self, size: int) -> Any:
+        """A buffer of ``size`` bytes of the pool, or None (counted, warned once a reason)."""
+        if self._unavailable:
+            self._over_network("off" if self.pool_bytes <= 0 else "unavailable")
+            return None
+        if size > self.pool_bytes:
+            self._over_network("too small", f"the shared-memory pool of "
+                               f"{self.pool_bytes / 2**20:g} MiB cannot hold an image message "
+                               f"of {size / 2**20:.1f} MiB")
+            return None
+        if self._provider is None and not self._open():
+            return None
+        import zenoh
+
+        try:
+            return self._provider.alloc(size, self._policy)
+        except zenoh.ZError as exc:
+            self._over_network("full", f"the shared-memory pool is full ({exc}): its readers "
+                               "still hold every buffer")
+            return None
+
+    def _open(self) -> bool:
+        try:
+            from zenoh import shm
+
+            self._provider = shm.ShmProvider.default_backend(self.pool_bytes)
+            self._policy = shm.GarbageCollect()
+        except Exception as exc:  # no shm module, no /dev/shm, none left: zenoh.ZError or others
+            self._unavailable = True
+            self._over_network("unavailable", f"no shared memory ({type(exc).__name__}: {exc})")
+            return False
+        return True
+
+    def _over_network(self, reason: str, why: str = "") -> None:
+        if why and not self.network[reason]:
+            self.log.warning("%s: images go over the network instead (counted)", why)
+        self.network[reason] += 1
+
+    @property
+    def fallbacks(self) -> int:
+        """Images that went over the network though shared memory was asked for."""
+        return sum(n for reason, n in self.network.items() if reason != "off")
+
+    def line(self) -> str:
+        """``"images in shared memory 280, over the network 8 (full 8)"``"""
+        sent = sum(self.network.values())
+        reasons = ", ".join(f"{r} {n}" for r, n in self.network.most_common())
+        return (f"images in shared memory {self.shared}, over the network {sent}"
+                + (f" ({reasons})" if sent else ""))
