@@ -14,5 +14,5 @@ class AROptions(Options):
     jpeg: int = option(0, "publish overlays as JPEG of quality Q (0: raw)", metavar="Q",
                        check=in_range(0, 100))
     all_poses: bool = option(False, "draw unreliable poses too")
-    capacity: int = option(2, "latest poses kept while busy", check=in_range(1, 1024))
+    capacity: int = option(16, "latest poses kept while busy", check=in_range(1, 1024))
     backend: str = option("egl", "moderngl standalone backend")

@@ -90,6 +90,8 @@ class Service(Receiving, Presence):
             self.keyring = Keyring(self.keyring.keys)  # checks only: the keys are another's
         self.screen = Screen(self.stream, self.run_id, self.stats, self.reject, self.keyring,
                              self.restarts > 0)
+        self.shared_memory = True
+        """Whether the host gives the session shared memory (:meth:`_open_session`)."""
         self.images: SharedImages | None = None
         """Where the service's image messages are written (:meth:`share_images`)."""
         self.stop_hooks: list[Callable[[], None]] = []
@@ -132,7 +134,7 @@ class Service(Receiving, Presence):
         import zenoh
 
         try:
-            self.session = zenoh.open(self.bus.config())
+            self.session = self._open_session()
         except zenoh.ZError as exc:
             raise OptionError(f"cannot open the Zenoh session ({self.bus.mode}, listen "
                               f"{list(self.bus.listen)}, connect {list(self.bus.connect)}): "
@@ -142,6 +144,23 @@ class Service(Receiving, Presence):
             self._status_thread = threading.Thread(
                 target=self._status_loop, name=f"{self.name}-status", daemon=True)
             self._status_thread.start()
+
+    def _open_session(self) -> Any:
+        """The Zenoh session; without shared memory where the host has none (no ``/dev/shm``,
+        or not writable): one warning, and everything goes over the network."""
+        import zenoh
+
+        config = self.bus.config()
+        try:
+            return zenoh.open(config)
+        except zenoh.ZError as exc:
+            if "shm" not in str(exc).lower():
+                raise
+            self.log.warning("no shared memory (%s): images go over the network instead "
+                             "(counted)", exc)
+        self.shared_memory = False
+        config.insert_json5("transport/shared_memory/enabled", "false")
+        return zenoh.open(config)
 
     def close(self) -> None:
         """Publish a last status, undeclare everything, close the session. Idempotent."""
@@ -243,7 +262,7 @@ class Service(Receiving, Presence):
     def share_images(self, pool_mb: float) -> SharedImages:
         """Write this service's frames or overlays once into a shared-memory pool of
         ``pool_mb`` MiB (0: over the network); see :mod:`services.bus.shm`."""
-        self.images = SharedImages(pool_mb, self.log)
+        self.images = SharedImages(pool_mb, self.log, available=self.shared_memory)
         return self.images
 
     def put(self, key: str, payload: Any, qos: QoS | None = None) -> None:

@@ -39,9 +39,12 @@ class SharedImages:
         Size of the pool in MiB; 0: no shared memory (every image over the network, not
         counted as a fall-back: it was asked for).
     log : logging.Logger
+    available : bool
+        False where the session found no shared memory (and said so): every image goes
+        over the network, counted as ``unavailable`` without a second warning.
     """
 
-    def __init__(self, pool_mb: float, log: logging.Logger) -> None:
+    def __init__(self, pool_mb: float, log: logging.Logger, available: bool = True) -> None:
         self.pool_bytes = int(pool_mb * 1024 * 1024)
         self.log = log
         self.shared = 0
@@ -52,7 +55,7 @@ class SharedImages:
         """Images whose pixels were not in a ``bytes`` or ``bytearray``: copied once more."""
         self._provider: Any = None
         self._policy: Any = None
-        self._unavailable = self.pool_bytes <= 0
+        self._unavailable = self.pool_bytes <= 0 or not available
 
     def payload(self, parts: Sequence[Buffer]) -> Any:
         """What to put for a payload made of ``parts``: a shared-memory buffer holding them
