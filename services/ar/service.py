@@ -114,6 +114,7 @@ def draw(svc: Service, compositor: Compositor, pose: HeadPose, frame: Frame, jpe
 def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
     """Render overlays until stopped."""
     frames = svc.frame_store()
+    images = svc.share_images(opts.shm_pool)
     unreliable = without_frame = 0
     drawn = Drawn()
     poses = svc.messages("pose", capacity=opts.capacity)
@@ -137,7 +138,8 @@ def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
                     svc.reject("pose", f"no overlay: {exc}")
         svc.set_state("running", f"{svc.stats.frames_out} overlays drawn; not drawn: "
                       f"{unreliable} unreliable poses, {without_frame} poses whose frame was "
-                      f"gone, {svc.stats.dropped - without_frame} poses skipped while busy")
+                      f"gone, {svc.stats.dropped - without_frame} poses skipped while busy; "
+                      f"{images.line()}")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
