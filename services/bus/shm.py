@@ -20,9 +20,10 @@ from __future__ import annotations
 import logging
 from collections import Counter
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from proto.codec import Buffer
+if TYPE_CHECKING:  # the options modules import this one: --help loads no msgpack nor numpy
+    from proto.codec import Buffer
 
 POOL_MB = 32
 """Default pool: 48 frames of 640 x 360, 12 of 1280 x 720."""
