@@ -19,10 +19,10 @@ from dataclasses import replace
 
 from services.bus.inbox import Received, Recent, Screen
 
-FRAMES_KEPT = 64
+FRAMES_KEPT = 32
 """Frames a store keeps at most (more than any stage's backlog under the credit window)."""
-MAX_BYTES = 128 * 2**20
-"""Bytes of pixels a store keeps at most: 194 frames of 640 x 360, 48 of 1280 x 720."""
+MAX_BYTES = 64 * 2**20
+"""Bytes of pixels a store keeps at most: 97 frames of 640 x 360, 24 of 1280 x 720."""
 
 
 def pixels_only(got: Received) -> Received:
