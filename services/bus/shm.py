@@ -84,8 +84,8 @@ class SharedImages:
             return None
         if size > self.pool_bytes:
             self._over_network("too small", f"the shared-memory pool of "
-                               f"{self.pool_bytes / 2**20:g} MiB cannot hold an image message "
-                               f"of {size / 2**20:.1f} MiB")
+                               f"{_size(self.pool_bytes)} cannot hold an image message of "
+                               f"{_size(size)}")
             return None
         if self._provider is None and not self._open():
             return None
@@ -126,3 +126,7 @@ class SharedImages:
         reasons = ", ".join(f"{r} {n}" for r, n in self.network.most_common())
         return (f"images in shared memory {self.shared}, over the network {sent}"
                 + (f" ({reasons})" if sent else ""))
+
+
+def _size(n: int) -> str:
+    return f"{n / 2**20:.1f} MiB" if n >= 2**20 else f"{n / 2**10:.0f} KiB"
