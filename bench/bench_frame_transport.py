@@ -33,6 +33,7 @@ from proto import Frame, Header, decode
 from proto.auth import Keyring, digest
 from services.bus.connection import BusOptions
 from services.bus.session import Service
+from services.bus.shm import POOL_IMAGES, SLACK
 from services.source.capture import pixel_buffer
 from services.stack.launcher import free_port
 
@@ -42,6 +43,7 @@ import json, sys, time
 from proto.auth import Keyring
 from services.bus.connection import BusOptions
 from services.bus.session import Service
+from services.bus.shm import POOL_IMAGES, SLACK
 endpoint, frames, keys = sys.argv[1], int(sys.argv[2]), Keyring.from_bytes(sys.argv[3].encode())
 bus = BusOptions("bench", listen=("tcp/127.0.0.1:0",), connect=(endpoint,))
 with Service(sys.argv[4], bus, handle_signals=False, keyring=keys) as svc:
@@ -78,7 +80,7 @@ def copies() -> list[tuple[str, float]]:
     signed = Keyring(keys.keys, "source")
     frame = Frame.from_array(Header.now("bench", 0, "source"), image)
     payload = signed.encode(frame)
-    provider = shm.ShmProvider.default_backend(64 * 2**20)
+    provider = shm.ShmProvider.default_backend(POOL_IMAGES * (len(payload) + SLACK))
     policy = shm.GarbageCollect()
 
     def into_shm() -> object:
@@ -95,7 +97,8 @@ def copies() -> list[tuple[str, float]]:
             lambda: zenoh.ZBytes(payload))),
         ("source: hash the pixels for the signature (before and now)",
          median_ms(lambda: digest(b"", pixels))),
-        ("now, source: one copy into a shared-memory buffer", median_ms(into_shm)),
+        (f"now, source: one copy into a shared-memory buffer (a pool of {POOL_IMAGES})",
+         median_ms(into_shm)),
         ("subscriber: payload to bytes (no buffer view in zenoh-python's abi3 wheel)",
          median_ms(received.to_bytes)),
         ("before, subscriber: decode, msgpack copying the pixels out",
@@ -122,7 +125,7 @@ def end_to_end(frames: int, subscribers: int, shared: bool) -> tuple[float, list
         missing = svc.wait_for_alive(names, 60)
         assert not missing, missing
         if shared:
-            svc.share_images(64)
+            svc.share_images(POOL_IMAGES)
         image = pixel_buffer(SHAPE)
         image[...] = np.random.default_rng(0).integers(0, 255, SHAPE, np.uint8)
         cpu = 0.0

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from services.bus.options import Options, in_range, option
-from services.bus.shm import POOL_MB
+from services.bus.shm import POOL_IMAGES
 
 
 @dataclass(frozen=True)
@@ -17,6 +17,6 @@ class AROptions(Options):
     all_poses: bool = option(False, "draw unreliable poses too")
     capacity: int = option(16, "latest poses kept while busy", check=in_range(1, 1024))
     backend: str = option("egl", "moderngl standalone backend")
-    shm_pool: float = option(POOL_MB, "MiB of shared memory the overlays are written into "
-                             "once (0: none, every overlay over the network)", metavar="MIB",
-                             check=in_range(0, 4096))
+    shm_overlays: int = option(POOL_IMAGES, "overlays the shared-memory pool holds, each written "
+                             "into it once (0: none, every one over the network)", metavar="N",
+                             check=in_range(0, 256))

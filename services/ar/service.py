@@ -114,7 +114,7 @@ def draw(svc: Service, compositor: Compositor, pose: HeadPose, frame: Frame, jpe
 def serve(svc: Service, compositor: Compositor, opts: AROptions) -> None:
     """Render overlays until stopped."""
     frames = svc.frame_store()
-    images = svc.share_images(opts.shm_pool)
+    images = svc.share_images(opts.shm_overlays)
     unreliable = without_frame = 0
     drawn = Drawn()
     poses = svc.messages("pose", capacity=opts.capacity)

@@ -259,10 +259,10 @@ class Service(Receiving, Presence):
         if count:
             self.stats.frames_out += 1
 
-    def share_images(self, pool_mb: float) -> SharedImages:
-        """Write this service's frames or overlays once into a shared-memory pool of
-        ``pool_mb`` MiB (0: over the network); see :mod:`services.bus.shm`."""
-        self.images = SharedImages(pool_mb, self.log, available=self.shared_memory)
+    def share_images(self, images: int) -> SharedImages:
+        """Write this service's frames or overlays once into a shared-memory pool holding
+        ``images`` of them (0: over the network); see :mod:`services.bus.shm`."""
+        self.images = SharedImages(images, self.log, available=self.shared_memory)
         return self.images
 
     def put(self, key: str, payload: Any, qos: QoS | None = None) -> None:

@@ -1,18 +1,20 @@
 """Images written once into Zenoh shared memory; over the network where it cannot be.
 
 A frame or overlay is the largest message on the bus (691 KB at 640 x 360). Its producer
-writes it once into a buffer of its own Zenoh shared-memory pool (:class:`SharedImages`):
+writes it once into a buffer of its own Zenoh shared-memory pool (:class:`SharedImages`,
+room for a few images, sized by the first):
 the payload's small head, then the pixels, copied from where they were decoded or rendered
 (:func:`proto.codec.encode_parts`), hashed there for the signature. Subscribers on the host
 receive that buffer itself; across hosts Zenoh sends the same bytes over the network.
 
 Where shared memory is missing, full (its readers still hold every buffer of the pool) or
-too small for the message, the message goes over the network as any other: the run goes on
-with one warning line per reason, and each such image is counted (:meth:`line`, in the
-producer's status and the run's summary). The producer never waits for a buffer: a reader
-that holds buffers too long costs it shared memory, never time. Zenoh removes a pool's
-segment when its process ends, and the segments of killed processes when the next pool is
-made (its orphaned-segment clean-up: no process has them open).
+too small for the message (one larger than the pool: a JPEG's size varies), the message
+goes over the network as any other: the run goes on with one warning line per reason, and
+each such image is counted (:meth:`SharedImages.line`, in the producer's status and the
+run's summary). The producer never waits for a buffer: a reader that holds buffers too long
+costs it shared memory, never time. Zenoh removes a pool's segment when its process ends,
+and the segments of killed processes when the next pool is made (its orphaned-segment
+clean-up: no process has them open).
 """
 
 from __future__ import annotations
@@ -25,19 +27,25 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:  # the options modules import this one: --help loads no msgpack nor numpy
     from proto.codec import Buffer
 
-POOL_MB = 32
-"""Default pool: 48 frames of 640 x 360, 12 of 1280 x 720."""
+POOL_IMAGES = 8
+"""Images a pool holds by default. Each is written where one a few images back lay, still in
+the CPU's cache: a copy of a 640 x 360 frame into a pool of 8 takes 0.04 ms, into one of 48
+(32 MiB) 0.2 ms (``bench/bench_frame_transport.py``). Readers copy a frame as it arrives, so
+a few are in use at a time; a reader behind by more sends the next ones over the network."""
+SLACK = 4096
+"""Bytes of the pool per image beyond the image (the allocator's own)."""
 REASONS = ("unavailable", "full", "too small")
 """Why an image went over the network, as counted."""
 
 
 class SharedImages:
-    """A producer's pool of shared memory for its image messages, made on first use.
+    """A producer's pool of shared memory for its image messages, made with the first: room
+    for ``images`` of its size.
 
     Parameters
     ----------
-    pool_mb : float
-        Size of the pool in MiB; 0: no shared memory (every image over the network, not
+    images : int
+        Images the pool holds; 0: no shared memory (every image over the network, not
         counted as a fall-back: it was asked for).
     log : logging.Logger
     available : bool
@@ -45,8 +53,10 @@ class SharedImages:
         over the network, counted as ``unavailable`` without a second warning.
     """
 
-    def __init__(self, pool_mb: float, log: logging.Logger, available: bool = True) -> None:
-        self.pool_bytes = int(pool_mb * 1024 * 1024)
+    def __init__(self, images: int, log: logging.Logger, available: bool = True) -> None:
+        self.images = images
+        self.pool_bytes = 0
+        """Size of the pool once made (0 before the first image)."""
         self.log = log
         self.shared = 0
         """Images written into shared memory."""
@@ -56,7 +66,7 @@ class SharedImages:
         """Images whose pixels were not in a ``bytes`` or ``bytearray``: copied once more."""
         self._provider: Any = None
         self._policy: Any = None
-        self._unavailable = self.pool_bytes <= 0 or not available
+        self._unavailable = images <= 0 or not available
 
     def payload(self, parts: Sequence[Buffer]) -> Any:
         """What to put for a payload made of ``parts``: a shared-memory buffer holding them
@@ -80,14 +90,14 @@ class SharedImages:
     def _alloc(self, size: int) -> Any:
         """A buffer of ``size`` bytes of the pool, or None (counted, warned once a reason)."""
         if self._unavailable:
-            self._over_network("off" if self.pool_bytes <= 0 else "unavailable")
+            self._over_network("off" if self.images <= 0 else "unavailable")
             return None
-        if size > self.pool_bytes:
+        if self._provider is None and not self._open(self.images * (size + SLACK)):
+            return None
+        if size > self.pool_bytes - SLACK:
             self._over_network("too small", f"the shared-memory pool of "
                                f"{_size(self.pool_bytes)} cannot hold an image message of "
                                f"{_size(size)}")
-            return None
-        if self._provider is None and not self._open():
             return None
         import zenoh
 
@@ -98,11 +108,12 @@ class SharedImages:
                                "still hold every buffer")
             return None
 
-    def _open(self) -> bool:
+    def _open(self, pool_bytes: int) -> bool:
         try:
             from zenoh import shm
 
-            self._provider = shm.ShmProvider.default_backend(self.pool_bytes)
+            self._provider = shm.ShmProvider.default_backend(pool_bytes)
+            self.pool_bytes = pool_bytes
             self._policy = shm.GarbageCollect()
         except Exception as exc:  # no shm module, no /dev/shm, none left: zenoh.ZError or others
             self._unavailable = True

@@ -116,7 +116,7 @@ def publish_frames(svc: Service, video: VideoInput, opts: SourceOptions) -> tupl
     clock = MediaClock(video)
     size = (video.width, video.height)
     count = 0
-    images = svc.share_images(opts.shm_pool)
+    images = svc.share_images(opts.shm_frames)
     for image in video.frames(in_place=True):
         if svc.stopping:
             return count, "stopped"

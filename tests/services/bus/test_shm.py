@@ -24,7 +24,7 @@ def frame(side: int = 64, in_bytearray: bool = True) -> Frame:
 
 
 def test_a_frame_is_written_once_and_reads_back_as_the_message() -> None:
-    images = SharedImages(4, LOG)
+    images = SharedImages(4, LOG)  # room for four
     message = frame()
     payload = images.payload(encode_parts(message))
     assert payload.as_shm() is not None  # a shared-memory buffer, not bytes
@@ -39,7 +39,7 @@ def test_a_frame_is_written_once_and_reads_back_as_the_message() -> None:
 def test_a_full_pool_sends_over_the_network_and_recovers_once_buffers_are_free(
         caplog: pytest.LogCaptureFixture) -> None:
     message = frame(side=256)  # 196,608 bytes of pixels
-    images = SharedImages(0.5, LOG)  # room for two
+    images = SharedImages(2, LOG)  # room for two
     with caplog.at_level(logging.WARNING):
         held = [images.payload(encode_parts(message)) for _ in range(4)]
     assert [not isinstance(p, bytes) for p in held] == [True, True, False, False]
@@ -48,11 +48,15 @@ def test_a_full_pool_sends_over_the_network_and_recovers_once_buffers_are_free(
     held.clear()  # the readers let go: the pool is used again
     assert not isinstance(images.payload(encode_parts(message)), bytes)
     assert images.line() == "images in shared memory 3, over the network 2 (full 2)"
+    assert images.pool_bytes < 3 * len(encode(message))  # sized by the first image
 
 
 def test_a_pool_too_small_or_none_sends_every_image_over_the_network() -> None:
+    """The pool is sized by its first image: a larger one later (a JPEG's size varies) goes
+    over the network."""
     message = frame()
-    small = SharedImages(0.01, LOG)
+    small = SharedImages(1, LOG)
+    assert not isinstance(small.payload(encode_parts(frame(side=16))), bytes)
     assert small.payload(encode_parts(message)) == encode(message)
     assert small.network == {"too small": 1} and small.fallbacks == 1
     off = SharedImages(0, LOG)

@@ -30,7 +30,7 @@ from proto.auth import Keyring
 from services.bus.connection import BusOptions
 from services.bus.qos import MUST_ARRIVE
 from services.bus.session import Service
-from services.bus.shm import POOL_MB
+from services.bus.shm import POOL_IMAGES
 from services.stack.launcher import Stack, free_port, prepare_models
 from services.stack.options import StackOptions
 from services.stack.outcome import EXIT_FAILED, exit_code, unanswered_problem
@@ -357,7 +357,7 @@ def test_services_die_with_a_killed_launcher_and_the_next_run_is_clean(
         children = _children(launcher.pid)
         assert len(children) >= 5, children  # the services (and multiprocessing's tracker)
         segments = _shm_segments([launcher.pid, *children])
-        assert any(p.stat().st_size >= POOL_MB * 2**20 for p in segments), segments  # frames
+        assert any(p.stat().st_size >= POOL_IMAGES * 640 * 360 * 3 for p in segments), segments
         launcher.send_signal(signal.SIGKILL)
         launcher.wait(10)
         deadline = time.monotonic() + 2.0
