@@ -118,9 +118,11 @@ class ArraySpec:
         self._check_shape(shape_t, name)
         nbytes = math.prod(shape_t) * DTYPES[code].itemsize
         self._check_bytes(nbytes, name)
-        if isinstance(data, bytearray | memoryview):  # from to_dict() rather than msgpack
-            data = bytes(data)
-        if not isinstance(data, bytes):
+        if isinstance(data, bytearray) or (isinstance(data, memoryview) and not data.readonly):
+            data = bytes(data)  # from to_dict() rather than msgpack: the array must not change
+        if isinstance(data, memoryview):  # a read-only view of a payload (codec): kept, not copied
+            data = data.cast("B") if data.format != "B" else data
+        if not isinstance(data, bytes | memoryview):
             raise ProtoError(f"{name}: data must be binary, got {type_name(data)}")
         if len(data) != nbytes:
             raise ProtoError(

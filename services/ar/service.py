@@ -5,7 +5,8 @@ pose (thesis ch. 15).
 ``aamtrack service ar [--jpeg Q] [--all-poses]``
 
 For each reliable ``HeadPose`` the service takes the frame it belongs to
-(the latest few frames are kept; with several faces, the frame as drawn for its
+(frames are kept until a pose of a later frame comes,
+:class:`services.bus.frames.FrameStore`; with several faces, the frame as drawn for its
 faces so far, so that each overlay of a frame has the glasses of every face
 drawn before it and the last has them all), renders the glasses at the pose and
 intrinsics of the message, with the head hiding what lies behind it, and publishes the
@@ -32,7 +33,6 @@ from services.bus.session import Service
 from services.messages import pose_of
 
 NAME = "ar"
-FRAMES_KEPT = 8
 FRAME_WAIT_S = 0.05
 """Longest wait for the frame of a pose that came before it."""
 
@@ -95,7 +95,8 @@ def draw(svc: Service, op: OverlayOperator, pose: HeadPose, frame: Frame, jpeg: 
 
 def serve(svc: Service, op: OverlayOperator, opts: AROptions) -> None:
     """Render overlays until stopped."""
-    frames = svc.recent("frame", FRAMES_KEPT)
+    frames = svc.frame_store()
+    images = svc.share_images(opts.shm_overlays)
     unreliable = without_frame = 0
     drawn = Drawn()
     poses = svc.messages("pose", capacity=opts.capacity)
@@ -103,6 +104,7 @@ def serve(svc: Service, op: OverlayOperator, opts: AROptions) -> None:
     for got in poses:
         pose = got.message
         assert isinstance(pose, HeadPose)
+        frames.forget_before(pose.header.run_id, pose.header.frame_index)
         if not op.draws(pose_of(pose)):
             unreliable += 1
         # The frame and its pose come from different publishers: the pose may come first.
@@ -118,7 +120,8 @@ def serve(svc: Service, op: OverlayOperator, opts: AROptions) -> None:
                     svc.reject("pose", f"no overlay: {exc}")
         svc.set_state("running", f"{svc.stats.frames_out} overlays drawn; not drawn: "
                       f"{unreliable} unreliable poses, {without_frame} poses whose frame was "
-                      f"gone, {svc.stats.dropped - without_frame} poses skipped while busy")
+                      f"gone, {svc.stats.dropped - without_frame} poses skipped while busy; "
+                      f"{images.line()}")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

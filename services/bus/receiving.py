@@ -15,6 +15,7 @@ from typing import Any
 
 from proto import Message, ProtoError, decode
 from proto.keys import TOPICS, topic_key
+from services.bus.frames import FRAMES_KEPT, MAX_BYTES, FrameStore, pixels_only
 from services.bus.inbox import Inbox, Latest, Received, Recent, Screen
 from services.bus.qos import TOPIC_QOS
 from services.bus.stats import ServiceStats
@@ -70,6 +71,13 @@ class Receiving:
         ``compact`` makes it, when given)."""
         return self._hold(Recent(self.screen, topic_key(self.stream, kind), kind, size,
                                  compact))
+
+    def frame_store(self, count: int = FRAMES_KEPT, max_bytes: int = MAX_BYTES,
+                    compact: Callable[[Received], Received] | None = pixels_only) -> FrameStore:
+        """This stream's frames, kept until no result for them can come
+        (:class:`services.bus.frames.FrameStore`)."""
+        return self._hold(FrameStore(self.screen, topic_key(self.stream, "frame"), count,
+                                     max_bytes, compact))
 
     def messages(self, kind_or_key: str, capacity: int = 1, kind: str | None = None,
                  count_lost: bool = False) -> Iterator[Received]:

@@ -25,6 +25,7 @@ from typing import Any
 
 from proto import Header, Message, Status, encode
 from proto.auth import Keyring
+from proto.codec import IMAGE_KINDS, encode_parts
 from proto.keys import alive_key, check_name, topic_key
 from proto.messages import STATES
 from services.bus.connection import BusOptions
@@ -34,6 +35,7 @@ from services.bus.presence import Presence
 from services.bus.process import ENV_RESTARTS, StopWatch
 from services.bus.qos import MUST_ARRIVE, TOPIC_QOS, QoS
 from services.bus.receiving import Receiving
+from services.bus.shm import SharedImages
 from services.bus.stats import ServiceStats
 from services.bus.trust import inherited, read_keys_file
 
@@ -88,6 +90,10 @@ class Service(Receiving, Presence):
             self.keyring = Keyring(self.keyring.keys)  # checks only: the keys are another's
         self.screen = Screen(self.stream, self.run_id, self.stats, self.reject, self.keyring,
                              self.restarts > 0)
+        self.shared_memory = True
+        """Whether the host gives the session shared memory (:meth:`_open_session`)."""
+        self.images: SharedImages | None = None
+        """Where the service's image messages are written (:meth:`share_images`)."""
         self.stop_hooks: list[Callable[[], None]] = []
         """Called (in the stopping thread) when the service is asked to stop."""
         self._status_period = status_period
@@ -128,7 +134,7 @@ class Service(Receiving, Presence):
         import zenoh
 
         try:
-            self.session = zenoh.open(self.bus.config())
+            self.session = self._open_session()
         except zenoh.ZError as exc:
             raise OptionError(f"cannot open the Zenoh session ({self.bus.mode}, listen "
                               f"{list(self.bus.listen)}, connect {list(self.bus.connect)}): "
@@ -138,6 +144,23 @@ class Service(Receiving, Presence):
             self._status_thread = threading.Thread(
                 target=self._status_loop, name=f"{self.name}-status", daemon=True)
             self._status_thread.start()
+
+    def _open_session(self) -> Any:
+        """The Zenoh session; without shared memory where the host has none (no ``/dev/shm``,
+        or not writable): one warning, and everything goes over the network."""
+        import zenoh
+
+        config = self.bus.config()
+        try:
+            return zenoh.open(config)
+        except zenoh.ZError as exc:
+            if "shm" not in str(exc).lower():
+                raise
+            self.log.warning("no shared memory (%s): images go over the network instead "
+                             "(counted)", exc)
+        self.shared_memory = False
+        config.insert_json5("transport/shared_memory/enabled", "false")
+        return zenoh.open(config)
 
     def close(self) -> None:
         """Publish a last status, undeclare everything, close the session. Idempotent."""
@@ -224,13 +247,27 @@ class Service(Receiving, Presence):
 
     def publish(self, message: Message, count: bool = True) -> None:
         """Encode ``message`` (signed: :meth:`encode`) and put it on its key with its
-        topic's QoS."""
-        self.put(message.key(), self.encode(message), TOPIC_QOS.get(message.KIND, QoS()))
+        topic's QoS; an image written once into the service's shared memory when it has
+        some (:attr:`images`)."""
+        if self.images is not None and message.KIND in IMAGE_KINDS:
+            parts = (self.keyring.encode_parts(message) if self.keyring.signer
+                     else encode_parts(message))
+            payload: Any = self.images.payload(parts)
+        else:
+            payload = self.encode(message)
+        self.put(message.key(), payload, TOPIC_QOS.get(message.KIND, QoS()))
         if count:
             self.stats.frames_out += 1
 
-    def put(self, key: str, payload: bytes, qos: QoS | None = None) -> None:
-        """Put raw bytes on ``key`` through a publisher declared once per key (with ``qos``).
+    def share_images(self, images: int) -> SharedImages:
+        """Write this service's frames or overlays once into a shared-memory pool holding
+        ``images`` of them (0: over the network); see :mod:`services.bus.shm`."""
+        self.images = SharedImages(images, self.log, available=self.shared_memory)
+        return self.images
+
+    def put(self, key: str, payload: Any, qos: QoS | None = None) -> None:
+        """Put a payload (bytes or ``zenoh.ZBytes``) on ``key`` through a publisher declared
+        once per key (with ``qos``).
 
         Once the service is closed (a callback thread may still answer while it
         stops) nothing is sent.

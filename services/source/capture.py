@@ -125,15 +125,23 @@ class VideoInput:
         self.fps = frame_rate(self._cap)
         self.read_errors = 0
 
-    def frames(self) -> Iterator[np.ndarray]:
-        """Frames in order, every pass of a file; stops at the end or on a read error."""
+    def frames(self, in_place: bool = False) -> Iterator[np.ndarray]:
+        """Frames in order, every pass of a file; stops at the end or on a read error.
+
+        ``in_place``: each frame is decoded into the same buffer (:func:`pixel_buffer`),
+        valid until the next is asked for: what a producer that sends it at once needs.
+        """
         played = 0
+        buffer = pixel_buffer((self.height, self.width, 3)) if in_place else None
         while True:
             frame = self._take_first() if played == 0 else None
             if frame is not None:
+                if buffer is not None and frame.shape == buffer.shape:
+                    buffer[...] = frame
+                    frame = buffer
                 yield frame
             while True:
-                ok, frame = self._cap.read()
+                ok, frame = self._cap.read(buffer) if buffer is not None else self._cap.read()
                 if not ok or frame is None:
                     break
                 yield frame
@@ -156,6 +164,16 @@ class VideoInput:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def pixel_buffer(shape: tuple[int, ...]) -> np.ndarray:
+    """A ``uint8`` array of ``shape`` over a ``bytearray``: the pixels decoded into it can be
+    copied as they are into a shared-memory buffer (which takes only bytes-like Python
+    objects, :mod:`services.bus.shm`)."""
+    size = 1
+    for side in shape:
+        size *= side
+    return np.frombuffer(bytearray(size), np.uint8).reshape(shape)
 
 
 def frame_size_problem(width: int, height: int) -> str:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from services.bus.options import OptionError, Options, in_range, option
+from services.bus.shm import POOL_IMAGES
 
 PACES = ("realtime", "fast")
 URL_PREFIXES = ("rtsp://", "rtsps://", "http://", "https://", "udp://", "tcp://", "rtmp://")
@@ -34,6 +35,9 @@ class SourceOptions(Options):
                          check=in_range(1, 64))
     answer_timeout: float = option(1.0, "fast pacing: seconds to wait for a fit before going on",
                                    check=in_range(0.01, 60))
+    shm_frames: int = option(POOL_IMAGES, "frames the shared-memory pool holds, each written "
+                             "into it once (0: none, every one over the network)", metavar="N",
+                             check=in_range(0, 256))
     max_frames: int = option(0, "stop after N frames (0: no limit)", metavar="N",
                              check=in_range(0))
     wait_for: tuple[str, ...] = option((), "a service to wait for before the first frame, "

@@ -5,10 +5,10 @@
 Frames go out raw (``(H, W, 3)`` BGR; Zenoh moves them through shared memory
 between processes of one host) or JPEG-encoded with ``--jpeg``, numbered from
 0 within the source's run (its run id: ``--run-id`` or a new one at each
-start). Pacing is the file's frame rate, or ``fast``: as fast as the fitter
+start). Pacing is the file's frame rate, or ``fast``: as fast as the slowest stage
 answers, with at most ``--window`` frames in flight
-(:class:`~services.source.pacing.CreditWindow`). At the end the source
-publishes ``EndOfStream`` (sent so that it must arrive) with the number of
+(:class:`~services.source.pacing.CreditWindow`, :mod:`services.source.answers`). At the
+end the source publishes ``EndOfStream`` (sent so that it must arrive) with the number of
 frames it published and why it stopped, and exits: 0 at the end of the input
 or on a stop, 1 when the input failed.
 """
@@ -28,6 +28,7 @@ from proto import EndOfStream, Frame
 from services.bus.args import parse_service_args
 from services.bus.process import init_process
 from services.bus.session import Service
+from services.source.answers import Answers
 from services.source.capture import InputSpec, SourceError, VideoInput
 from services.source.options import SourceOptions
 from services.source.pacing import CreditWindow, RealTimePacer
@@ -66,21 +67,31 @@ def frame_problem(image: np.ndarray, size: tuple[int, int]) -> str:
 
 
 def make_gate(svc: Service, opts: SourceOptions, fps: float) -> Callable[[int], bool]:
-    """The wait before frame ``k``: real-time pacing or the fit credit window."""
+    """The wait before frame ``k``: real-time pacing, or the credit window over the answers
+    of every stage of the run (:mod:`services.source.answers`)."""
     if opts.pace == "realtime" and opts.video is not None:
         return RealTimePacer(fps, svc.wait).wait
     if opts.pace == "realtime":
         return lambda k: not svc.stopping  # a camera or stream sets its own pace
     window = CreditWindow(opts.window, opts.answer_timeout)
+    answers = Answers(opts.wait_for)
 
-    def on_fit(sample: Any) -> None:
-        fit = svc.screen.check(sample.payload.to_bytes(), str(sample.key_expr), "fit")
-        if fit is not None:
-            window.answer(fit.header.frame_index)
+    def on_answer(sample: Any) -> None:
+        key = str(sample.key_expr)
+        msg = svc.screen.check(sample.payload.to_bytes(), key, key.rsplit("/", 1)[-1])
+        if msg is not None:
+            window.answer(answers.saw(msg))
 
-    svc.subscribe(svc.key("fit"), on_fit)
+    for kind in answers.listens_to:
+        svc.subscribe(svc.key(kind), on_answer)
     svc.stop_hooks.append(window.stop)
-    return window.wait
+
+    def gate(k: int) -> bool:
+        going_on = window.wait(k)
+        answers.skip_to(window.answered)  # what the window gave up on after its timeout
+        return going_on
+
+    return gate
 
 
 class MediaClock:
@@ -105,7 +116,8 @@ def publish_frames(svc: Service, video: VideoInput, opts: SourceOptions) -> tupl
     clock = MediaClock(video)
     size = (video.width, video.height)
     count = 0
-    for image in video.frames():
+    images = svc.share_images(opts.shm_frames)
+    for image in video.frames(in_place=True):
         if svc.stopping:
             return count, "stopped"
         problem = frame_problem(image, size)
@@ -120,6 +132,7 @@ def publish_frames(svc: Service, video: VideoInput, opts: SourceOptions) -> tupl
         svc.stats.count_in()
         svc.stats.last_frame = count
         svc.stats.latency.add(1000 * (time.perf_counter() - started))
+        svc.set_state("running", f"{video.spec.describe()}: {images.line()}")
         count += 1
         if opts.max_frames and count >= opts.max_frames:
             break
@@ -156,7 +169,7 @@ def serve(svc: Service, opts: SourceOptions) -> int:
             svc.set_state("failed", str(exc))
             publish_eos(svc, svc.stats.frames_out, f"error: {exc}")
             return 1
-    svc.set_state("stopping", reason)
+    svc.set_state("stopping", f"{reason}; {svc.images.line()}" if svc.images else reason)
     publish_eos(svc, count, reason)
     return 0
 

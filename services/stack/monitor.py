@@ -1,9 +1,10 @@
 """What the launcher sees on the bus: results per frame, statuses, end of stream, the summary.
 
-Everything is screened like a service's input (:class:`services.bus.inbox.Screen`): only
-messages of the run signed by the run's own services count, each index once; everything
-else is ignored or rejected, counted by reason in the summary, and the runs of statuses of
-another run are listed there.
+Frames and overlays are watched only when they are recorded (their producers' statuses
+count them otherwise). Everything is screened like a service's input
+(:class:`services.bus.inbox.Screen`): only messages of the run signed by the run's own
+services count, each index once; everything else is ignored or rejected, counted by reason
+in the summary, and the runs of statuses of another run are listed there.
 """
 
 from __future__ import annotations
@@ -57,8 +58,15 @@ class StackMonitor:
         self._lock = threading.Lock()
         self._record_images = record_images
 
+    @property
+    def watches_images(self) -> bool:
+        """Whether the launcher takes the frames and overlays: only to record them. Else it
+        counts them from their producers' statuses, and receives, checks and decodes none of
+        the run's largest messages."""
+        return self.recorder is not None and self._record_images
+
     def subscribe(self) -> None:
-        for kind in (*RESULT_KINDS, *IMAGE_KINDS):
+        for kind in (*RESULT_KINDS, *(IMAGE_KINDS if self.watches_images else ())):
             if kind == "status":
                 continue
             self.svc.subscribe(self.svc.key(kind), self._on_sample)
@@ -130,7 +138,7 @@ class StackMonitor:
                 "total_frames": total,
                 "eos_reason": None if self.eos is None else self.eos.reason,
                 "frames_with": {k: len(v) for k, v in self.indices.items()},
-                "messages": dict(self.counts),
+                "messages": self._messages(services),
                 "fits_failed": self.fits_failed,
                 "fits_no_face": self.fits_no_face,
                 "pose_latency_ms": _percentiles(sorted(self.pose_latency_ms)),
@@ -142,6 +150,15 @@ class StackMonitor:
                 "rejected": self.svc.stats.rejected,
             }
 
+
+    def _messages(self, services: dict[str, Any]) -> dict[str, int]:
+        """Messages of each kind seen; frames and overlays, unless watched, as their
+        producers counted them."""
+        counts = dict(self.counts)
+        if not self.watches_images:
+            for kind, producer in (("frame", "source"), ("overlay", "ar")):
+                counts[kind] = services.get(producer, {}).get("frames_out", 0)
+        return counts
 
     def _service_dict(self, name: str) -> dict[str, Any]:
         """A service's last status, its counts summed over every process it has had (a
@@ -206,8 +223,9 @@ def summary_table(summary: dict[str, Any]) -> str:
         lines.append(f"{name:<12} {s['state']:<9} {s['frames_in']:>6} {s['frames_out']:>6} "
                      f"{s['dropped']:>7} {s['rejected']:>8} {s['lost']:>5} {s['ignored']:>7} "
                      f"{s['failed']:>6} {p50:>7} {p99:>7} {s['restarts']:>8}")
-    if "ar" in summary["services"]:
-        lines.append(f"ar: {summary['services']['ar']['message']}")
+    for name in ("source", "ar"):  # how frames travelled; what the renderer drew
+        if name in summary["services"]:
+            lines.append(f"{name}: {summary['services'][name]['message']}")
     ignored = summary.get("ignored", {})
     if ignored or summary.get("rejected"):
         parts = [f"{n} {why}" for why, n in ignored.items()]

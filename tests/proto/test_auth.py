@@ -10,7 +10,17 @@ import numpy as np
 import pytest
 
 from proto import EndOfStream, Frame, Header, decode, encode
-from proto.auth import KEY_BYTES, Keyring, encode_signed, is_signed
+from proto.auth import (
+    KEY_BYTES,
+    Keyring,
+    digest,
+    encode_signed,
+    encode_signed_parts,
+    is_signed,
+    sign_digest,
+    verifies,
+)
+from proto.codec import encode_parts
 from proto.limits import ProtoError
 
 KEY = bytes(range(KEY_BYTES))
@@ -35,8 +45,8 @@ def test_a_signed_message_decodes_to_itself_and_passes() -> None:
     assert len(eos.header.auth) == 32 and is_signed(KEY, payload, eos)
     assert replace(eos, header=replace(eos.header, auth="")) == _eos()
     assert payload == encode(eos)  # laid out as the codec lays out any message
-    # A test vector for other implementations.
-    assert eos.header.auth == "a25c4a995829fe717dafcdf83e244dd3"
+    # A test vector for other implementations: keyed BLAKE3 of the message's digest.
+    assert eos.header.auth == "b62df60dbbc28c89c9ab868e7ca662c0"
 
 
 def test_the_signature_covers_the_pixels_their_shape_and_channels() -> None:
@@ -100,3 +110,27 @@ def test_a_keyring_gives_each_service_its_own_key_and_the_keys_of_what_it_reads(
         Keyring.from_bytes(b'{"keys": {}}')
     with pytest.raises(ValueError, match="is not 32 bytes"):
         Keyring({"source": b"short"})
+
+
+def test_a_frame_is_signed_over_its_pixels_where_they_lie() -> None:
+    """The producer hashes the pixels once where they lie and hands them on uncopied: the
+    parts join into the payload :func:`encode_signed` makes, the last part is the buffer the
+    frame's array views; the signature is the key's of the digest, and of no other digest."""
+    buffer = bytearray(24 * 32 * 3)
+    image = np.frombuffer(buffer, np.uint8).reshape(24, 32, 3)
+    image[...] = np.arange(image.size, dtype=np.uint8).reshape(image.shape)
+    frame = _frame(image)
+    parts = encode_signed_parts(KEY, frame)
+    assert parts[-1] is buffer
+    payload = b"".join(parts)
+    assert payload == encode_signed(KEY, frame)
+    signed = decode(payload, "frame")
+    assert is_signed(KEY, payload, signed)
+    unsigned = encode_parts(frame)
+    assert unsigned[-1] is buffer and b"".join(unsigned) == encode(frame)
+    head = msgpack.packb(signed.header.to_dict("frame") | {"auth": ""})
+    body = payload[payload.index(b"\xa4body") + 5:]
+    assert verifies(KEY, digest(head, body), signed.header.auth)
+    assert sign_digest(KEY, digest(head, body)) == signed.header.auth
+    assert not verifies(KEY, digest(head, body[:-1] + b"\x00"), signed.header.auth)
+    assert not verifies(bytes(KEY_BYTES), digest(head, body), signed.header.auth)

@@ -233,3 +233,21 @@ def test_payload_limits() -> None:
         for k in MESSAGE_TYPES
         if k not in ("frame", "overlay")
     )
+
+
+def test_a_raw_frame_decodes_to_a_view_of_its_payload_in_any_layout() -> None:
+    """The pixels of a frame laid out as the encoder lays it out are read where they lie in
+    the payload (each subscriber would otherwise copy them); another valid layout decodes to
+    the same message through the general path, copied."""
+    image = np.arange(12 * 16 * 3, dtype=np.uint8).reshape(12, 16, 3)
+    frame = Frame.from_array(Header.now("cam0", 7, "source"), image)
+    payload = encode(frame)
+    fast = decode(payload, "frame")
+    assert fast == frame and not fast.image.flags.writeable
+    assert np.shares_memory(fast.image, np.frombuffer(payload, np.uint8))
+    obj = msgpack.unpackb(payload)
+    body = obj["body"]
+    obj["body"] = {"image": body["image"], **{k: v for k, v in body.items() if k != "image"}}
+    other = msgpack.packb(obj, use_bin_type=True)  # the image first: another encoder's layout
+    slow = decode(other, "frame")
+    assert slow == frame and not np.shares_memory(slow.image, np.frombuffer(other, np.uint8))

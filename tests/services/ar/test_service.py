@@ -12,7 +12,7 @@ import pytest
 from aamcore.operators.overlay import OverlayOperator
 from aamcore.pose import CameraIntrinsics
 from proto import Frame, Header, HeadPose, decode, encode
-from services.ar.service import FRAMES_KEPT, overlay_message
+from services.ar.service import overlay_message
 from services.bus.connection import BusOptions
 from services.bus.images import image_of
 from services.bus.session import Service
@@ -64,16 +64,20 @@ def test_overlay_messages_raw_and_jpeg(svc: Service) -> None:
     assert jpeg.encoding == "jpeg" and image_of(jpeg).shape == (36, 64, 3)
 
 
-def test_the_frames_of_recent_poses_are_kept_by_index(svc: Service) -> None:
-    frames = svc.recent("frame", FRAMES_KEPT)  # delivered within the session
-    last = FRAMES_KEPT + 2
+def test_a_frame_is_kept_until_a_pose_of_a_later_frame_comes(svc: Service) -> None:
+    """Frames wait for their poses however far behind the poses are (within the store's
+    bounds); a pose of frame k means none comes for the frames before it."""
+    frames = svc.frame_store(count=100)  # delivered within the session
+    last = 80
     for i in range(last + 1):
         header = Header.now(svc.stream, i, "source")
         svc.publish(Frame.from_array(header, np.zeros((4, 4, 3), np.uint8)))
     deadline = time.monotonic() + 5
-    while (got := frames.take("", last)) is None:
+    while frames.take("", last, keep=True) is None:
         assert time.monotonic() < deadline, "the frames did not arrive"
         time.sleep(0.01)
-    assert got.message.header.frame_index == last
-    assert frames.take("", 2) is None and frames.take("", last) is None
-    assert frames.take("", last - FRAMES_KEPT + 1) is not None
+    assert len(frames) == last + 1 and frames.pushed_out == 0
+    assert frames.take("", 0, keep=True) is not None  # the oldest is still there
+    frames.forget_before("", 40)
+    assert frames.forgotten == 40 and frames.take("", 39) is None
+    assert frames.take("", 40) is not None and frames.take("", 40) is None  # taken once

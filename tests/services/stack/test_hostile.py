@@ -48,12 +48,14 @@ def _fit(stream: str, run: str, index: int, points: int = 68, faces: int = 1) ->
 
 
 def attacks(intruder: Service, run: str, frames: list[bytes]) -> dict[str, int]:
-    """Send every attack; how many messages went out for each reason they must be ignored."""
+    """Send every attack; how many messages the launcher must ignore, by reason (the forged
+    and replayed frames are the fitter's to ignore)."""
     stream, sent = intruder.stream, {}
 
     def put(reason: str, key: str, payload: bytes) -> None:
         intruder.put(key, payload, MUST_ARRIVE)
-        sent[reason] = sent.get(reason, 0) + 1
+        if not key.endswith("/frame"):  # the launcher takes no frames: the fitter counts them
+            sent[reason] = sent.get(reason, 0) + 1
 
     status_key = f"aamtrack/{stream}/status/"
     other_run = Keyring.generate(["source", "fitter"])

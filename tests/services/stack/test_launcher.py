@@ -30,6 +30,7 @@ from proto.auth import Keyring
 from services.bus.connection import BusOptions
 from services.bus.qos import MUST_ARRIVE
 from services.bus.session import Service
+from services.bus.shm import POOL_IMAGES
 from services.stack.launcher import Stack, free_port, prepare_models
 from services.stack.options import StackOptions
 from services.stack.outcome import EXIT_FAILED, exit_code, unanswered_problem
@@ -302,6 +303,24 @@ def _children(pid: int) -> list[int]:
     return found
 
 
+def _shm_segments(pids: list[int]) -> set[Path]:
+    """The Zenoh shared-memory segments (``/dev/shm/*.zenoh``) these processes hold open."""
+    found = set()
+    for pid in pids:
+        try:
+            fds = list(Path(f"/proc/{pid}/fd").iterdir())
+        except OSError:
+            continue
+        for fd in fds:
+            try:
+                target = Path(os.readlink(fd))
+            except OSError:
+                continue
+            if target.parent == Path("/dev/shm") and target.suffix == ".zenoh":
+                found.add(target)
+    return found
+
+
 def _running(pid: int) -> bool:
     try:
         state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
@@ -337,6 +356,8 @@ def test_services_die_with_a_killed_launcher_and_the_next_run_is_clean(
             assert got is not None, f"the stack produced no fits:\n{log.read_text()[-4000:]}"
         children = _children(launcher.pid)
         assert len(children) >= 5, children  # the services (and multiprocessing's tracker)
+        segments = _shm_segments([launcher.pid, *children])
+        assert any(p.stat().st_size >= POOL_IMAGES * 640 * 360 * 3 for p in segments), segments
         launcher.send_signal(signal.SIGKILL)
         launcher.wait(10)
         deadline = time.monotonic() + 2.0
@@ -353,6 +374,10 @@ def test_services_die_with_a_killed_launcher_and_the_next_run_is_clean(
     poses = [m.header.frame_index for m in load_messages(rec, ["pose"])]
     assert sorted(fits) == list(range(72)) and sorted(poses) == list(range(72))
     assert summary["foreign_runs"] == {}
+    # No shared-memory segment of the killed run is left: each went with its process or was
+    # cleaned when the next run made its own (Zenoh removes the segments no process holds).
+    held = _shm_segments([int(e.name) for e in Path("/proc").iterdir() if e.name.isdigit()])
+    assert not [p for p in segments if p.exists() and p not in held]
 
 
 def test_without_jaffe_the_expression_service_is_started_without_a_classifier(
