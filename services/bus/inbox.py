@@ -32,7 +32,7 @@ from proto import Message, ProtoError, decode
 from proto.auth import Keyring
 from proto.keys import owner_of
 from services.bus.stats import FrameNumbering, ServiceStats
-from services.bus.trust import MAX_AGE_S, Replays
+from services.bus.trust import MAX_AGE_S, Floors, Replays, below_floor
 
 
 @dataclass(frozen=True)
@@ -75,11 +75,14 @@ class Screen:
         nothing is checked (a process outside any keyed run).
     restarted : bool
         The service's process is a restart: frames are numbered from the first it sees.
+    floors : Floors, optional
+        A restarted process's high-water marks of its run (:mod:`.trust`): a message of a
+        frame at or below its producer's is ignored (``before the restart``).
     """
 
     def __init__(
         self, stream: str, run_id: str, stats: ServiceStats, reject: Callable[[str, str], None],
-        keyring: Keyring | None = None, restarted: bool = False,
+        keyring: Keyring | None = None, restarted: bool = False, floors: Floors | None = None,
     ) -> None:
         self.stream = stream
         self.run_id = run_id
@@ -87,6 +90,7 @@ class Screen:
         self.reject = reject
         self.keyring = keyring or Keyring()
         self.restarted = restarted
+        self.floors = dict(floors or {})
 
     def check(self, payload: bytes, key: str, kind: str | None,
               replays: Replays | None = None) -> Message | None:
@@ -113,6 +117,8 @@ class Screen:
                 return self.ignore(problem)
             if abs(time.time_ns() - header.publish_time_ns) > MAX_AGE_S * 1e9:
                 return self.ignore("stale")
+            if self.floors and below_floor(message, self.floors):
+                return self.ignore("before the restart")
             if replays is not None and not replays.first(message):
                 return self.ignore("replayed")
         return message

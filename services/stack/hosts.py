@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from proto.auth import Keyring
+from proto.auth import LAUNCHER, Keyring
 from services.bus.trust import read_keys_file
 from services.stack import preflight
 from services.stack.options import StackOptions
@@ -24,9 +24,19 @@ def deployment_keys(opts: StackOptions) -> Keyring:
             "the stack file names no keys file ([bus] keys = FILE): make one with `aamtrack "
             "keys FILE` and copy it to every host (mode 600), as its certificates")
     try:
-        return read_keys_file(opts.bus.keys)
+        keyring = read_keys_file(opts.bus.keys)
     except ValueError as exc:
         raise preflight.PreflightError(str(exc)) from None
+    missing = [n for n in (*opts.services, LAUNCHER) if n not in keyring.secrets]
+    if missing:
+        raise preflight.PreflightError(f"keys file {opts.bus.keys}: no private key of "
+                                       f"{', '.join(missing)} (make one with aamtrack keys)")
+    trust = opts.launch.trust.lower()
+    if trust and not keyring.fingerprint.startswith(trust):
+        raise preflight.PreflightError(
+            f"keys file {opts.bus.keys}: its launcher key {keyring.fingerprint} is not the "
+            f"trusted {trust}")
+    return keyring
 
 
 def not_joined(heard: set[str], opts: StackOptions) -> dict[str, list[str]]:
