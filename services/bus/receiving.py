@@ -50,6 +50,7 @@ class Receiving:
         return kind_or_key, kind
 
     def _hold(self, holder: Any) -> Any:
+        self.screen.subscribing()
         self._holders.append(holder)
         self.subscribe(holder.key, holder.push)
         return holder

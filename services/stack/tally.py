@@ -28,6 +28,9 @@ class Tally:
         self._recent: set[int] = set()
         self._order: collections.deque[int] = collections.deque()
 
+    def __len__(self) -> int:
+        return self.count
+
     def __contains__(self, index: int) -> bool:
         return index in self._recent
 
