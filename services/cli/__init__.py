@@ -28,13 +28,13 @@ def _first_of_all() -> None:
     (a launcher's keys are made later in this process; no other process of the user may
     read its memory), and end on Ctrl-C with one line while it imports (:func:`main` puts
     the usual handling in place)."""
+    signal.signal(signal.SIGINT, _interrupted_early)
     import contextlib
     import ctypes
 
     # Where it fails, the launcher says so, and stops, before it makes any key.
     with contextlib.suppress(OSError, AttributeError):
         ctypes.CDLL(None).prctl(4, 0, 0, 0, 0)  # PR_SET_DUMPABLE 0
-    signal.signal(signal.SIGINT, _interrupted_early)
 
 
 if os.path.basename(sys.argv[0]) == "aamtrack":  # the console command, not an import

@@ -99,6 +99,8 @@ def _trusted(svc: Service, args: argparse.Namespace) -> str | None:
     against, in words; None, with a message, when no run can be trusted."""
     if args.unverified:
         return "UNVERIFIED: no signature checked (--unverified)"
+    if svc.keyring:  # --keys: a deployment's keys file, read for its public keys
+        return f"verified against the public keys of {svc.bus.keys}"
     try:
         keys = svc.trust_run(args.trust, args.timeout)
     except OptionError as exc:
