@@ -22,6 +22,8 @@ import json
 import os
 import socket
 import struct
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from proto.auth import Keyring
@@ -30,6 +32,8 @@ from services.bus.trust import Floors, dumpable, tracer_of
 HANDOVER_TIMEOUT = 60.0
 """Seconds the launcher waits for a started service's report (an interpreter starting on a
 loaded machine)."""
+POLL_S = 0.2
+"""Seconds between two looks at whether the process still lives, while it is waited for."""
 MAX_REPORT = 4096
 MAX_KEYS = 1 << 20
 REFUSED = b"refused"
@@ -38,6 +42,11 @@ _UCRED = struct.Struct("3i")
 
 class HandoverError(RuntimeError):
     """A service could not be given its keys safely: the run must not go on."""
+
+
+class ProcessGone(RuntimeError):
+    """The service's process ended before it asked for its keys (a death, not a threat: it
+    is restarted as any other)."""
 
 
 @dataclass(frozen=True)
@@ -89,15 +98,29 @@ def _peer_pid(sock: socket.socket) -> int:
     return pid
 
 
-def _fresh_channel(launcher_end: socket.socket, name: str, timeout: float
-                   ) -> tuple[socket.socket, dict]:
+def _request(launcher_end: socket.socket, name: str, timeout: float,
+             alive: Callable[[], bool]) -> tuple[bytes, list]:
+    """The service's key request, waited for while its process lives (another process may
+    hold its end of the channel open after it died)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        launcher_end.settimeout(max(0.01, min(POLL_S, deadline - time.monotonic())))
+        try:
+            data, ancillary, _flags, _addr = launcher_end.recvmsg(
+                MAX_REPORT, socket.CMSG_SPACE(4 * array.array("i").itemsize))
+            return data, ancillary
+        except TimeoutError:
+            if not alive():
+                raise ProcessGone(f"{name} ended before it asked for its keys") from None
+            if time.monotonic() >= deadline:
+                raise HandoverError(f"{name} never asked for its keys within {timeout:g} s"
+                                    ) from None
+
+
+def _fresh_channel(launcher_end: socket.socket, name: str, timeout: float,
+                   alive: Callable[[], bool]) -> tuple[socket.socket, dict]:
     """The fresh socket the service sent, and its report."""
-    launcher_end.settimeout(timeout)
-    try:
-        data, ancillary, _flags, _addr = launcher_end.recvmsg(
-            MAX_REPORT, socket.CMSG_SPACE(4 * array.array("i").itemsize))
-    except TimeoutError:
-        raise HandoverError(f"{name} never asked for its keys within {timeout:g} s") from None
+    data, ancillary = _request(launcher_end, name, timeout, alive)
     fds = array.array("i")
     for level, kind, payload in ancillary:
         if level == socket.SOL_SOCKET and kind == socket.SCM_RIGHTS:
@@ -106,8 +129,9 @@ def _fresh_channel(launcher_end: socket.socket, name: str, timeout: float
     if not data or len(sockets) != 1:
         for s in sockets:
             s.close()
-        raise HandoverError(f"{name} ended before asking for its keys" if not data else
-                            f"{name}: its key channel carried no fresh socket: refused")
+        if not data:
+            raise ProcessGone(f"{name} ended before it asked for its keys")
+        raise HandoverError(f"{name}: its key channel carried no fresh socket: refused")
     try:
         report = json.loads(data)
     except ValueError:
@@ -117,7 +141,8 @@ def _fresh_channel(launcher_end: socket.socket, name: str, timeout: float
 
 def give_keys(launcher_end: socket.socket, pid: int, name: str, keyring: Keyring,
               floors: Floors | None = None, insecure: bool = False,
-              timeout: float = HANDOVER_TIMEOUT) -> Handed:
+              timeout: float = HANDOVER_TIMEOUT, alive: Callable[[], bool] = lambda: True
+              ) -> Handed:
     """In the launcher: wait for service ``name`` (process ``pid``) to report over
     ``launcher_end``, check it, and hand it ``keyring`` (and ``floors``) over the fresh
     channel it sent.
@@ -128,8 +153,10 @@ def give_keys(launcher_end: socket.socket, pid: int, name: str, keyring: Keyring
         When the process cannot be given its keys safely (and the run is not insecure), or
         its channel was tampered with (never insecure: the keys would go to another
         process).
+    ProcessGone
+        When the process ended (``alive()`` false) before it asked.
     """
-    channel, report = _fresh_channel(launcher_end, name, timeout)
+    channel, report = _fresh_channel(launcher_end, name, timeout, alive)
     with channel:
         maker = _peer_pid(channel)
         if maker != pid:

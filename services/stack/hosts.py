@@ -1,11 +1,29 @@
-"""One host of a stack spread over several: its keys, and the other hosts it waits for."""
+"""The run's keys (made by the launcher, or a deployment's keys file for one host of a
+stack spread over several), and the other hosts a host waits for."""
 
 from __future__ import annotations
 
 from proto.auth import LAUNCHER, Keyring
-from services.bus.trust import read_keys_file
+from services.bus.trust import harden, insecurity, read_keys_file
 from services.stack import preflight
 from services.stack.options import StackOptions
+
+
+def secure_launcher(insecure: bool) -> str:
+    """Make this process non-dumpable before any key exists; why it cannot keep keys from
+    other processes of its user ("" when it can).
+
+    Raises
+    ------
+    preflight.PreflightError
+        When it cannot, unless ``insecure``.
+    """
+    harden()
+    problem = insecurity()
+    if problem and not insecure:
+        raise preflight.PreflightError(f"the launcher cannot keep the run's keys: {problem} "
+                                       "(--insecure runs anyway, and says so)")
+    return f"launcher: {problem}" if problem else ""
 
 
 def deployment_keys(opts: StackOptions) -> Keyring:

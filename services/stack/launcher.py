@@ -61,10 +61,9 @@ from services.bus.runtime import (
     socket_path,
 )
 from services.bus.session import Service
-from services.bus.trust import harden, insecurity
 from services.stack import preflight
 from services.stack.drain import EndOfRun
-from services.stack.hosts import deployment_keys, never_joined, not_joined
+from services.stack.hosts import deployment_keys, never_joined, not_joined, secure_launcher
 from services.stack.monitor import StackMonitor, summary_table
 from services.stack.options import StackOptions
 from services.stack.outcome import EXIT_INPUT, exit_code
@@ -331,23 +330,6 @@ class Stack:
             "exit_codes": self.exit_codes, "events": list(self.supervisor.events),
             "launcher_key": self.fingerprint,
             "insecure": insecure + list(self.supervisor.insecure_notes)}
-
-
-def secure_launcher(insecure: bool) -> str:
-    """Make this process non-dumpable before any key exists; why it cannot keep keys from
-    other processes of its user ("" when it can).
-
-    Raises
-    ------
-    preflight.PreflightError
-        When it cannot, unless ``insecure``.
-    """
-    harden()
-    problem = insecurity()
-    if problem and not insecure:
-        raise preflight.PreflightError(f"the launcher cannot keep the run's keys: {problem} "
-                                       "(--insecure runs anyway, and says so)")
-    return f"launcher: {problem}" if problem else ""
 
 
 def prepared(opts: StackOptions) -> StackOptions:

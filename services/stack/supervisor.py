@@ -39,7 +39,7 @@ from pathlib import Path
 
 import services
 from proto.auth import Keyring
-from services.bus.handover import HandoverError, give_keys, spawn_channel
+from services.bus.handover import HandoverError, ProcessGone, give_keys, spawn_channel
 from services.bus.process import ENV_PARENT, ENV_RESTARTS
 from services.bus.trust import Floors
 
@@ -100,6 +100,8 @@ class _Managed:
     restart_at: float | None = None
     exitcode: int | None = None
     gave_up: bool = False
+    refused: bool = False
+    """Refused its keys and killed (:meth:`Supervisor._hand`)."""
 
 
 class Supervisor:
@@ -182,13 +184,17 @@ class Supervisor:
         if channel is None or m.process is None:
             return
         floors = self.floors(m.spec.name) if m.restarts and self.floors else None
+        process = m.process
         with channel:
             try:
-                handed = give_keys(channel, m.process.pid, m.spec.name, m.spec.keyring,
-                                   floors, self.insecure)
+                handed = give_keys(channel, process.pid, m.spec.name, m.spec.keyring,
+                                   floors, self.insecure,
+                                   alive=lambda: process.poll() is None)
+            except ProcessGone:  # died on its way up: restarted as any death is
+                return
             except HandoverError:
-                m.gave_up = True
-                m.process.kill()
+                m.gave_up = m.refused = True
+                m.process.kill()  # a tracer may keep it unreaped: never waited for long
                 raise
         if handed.problem:
             self.insecure_notes.append(handed.problem)
@@ -262,10 +268,16 @@ class Supervisor:
         deadline = time.monotonic() + timeout
         for m, p in running:
             try:
-                p.wait(max(0.0, deadline - time.monotonic()))
+                p.wait(0.5 if m.refused else max(0.0, deadline - time.monotonic()))
             except subprocess.TimeoutExpired:
+                if m.refused:  # killed already, and its tracer holds it: nothing to say
+                    continue
                 log.error("%s did not stop within %g s: killing it", m.spec.name, timeout)
                 p.kill()
-                p.wait(2.0)
+                try:
+                    p.wait(2.0)
+                except subprocess.TimeoutExpired:  # killed, but its tracer has not let go
+                    log.error("%s (pid %s) was killed but cannot be reaped (traced?)",
+                              m.spec.name, p.pid)
             m.exitcode = p.returncode
         return {n: m.exitcode for n, m in self._managed.items()}

@@ -15,6 +15,7 @@ from proto.auth import Keyring
 from services.bus.handover import (
     REFUSED,
     HandoverError,
+    ProcessGone,
     give_keys,
     receive_keys,
     spawn_channel,
@@ -65,6 +66,9 @@ def test_no_request_in_time_and_a_request_without_a_channel_are_refused() -> Non
     launcher_end, service_end = spawn_channel()
     with pytest.raises(HandoverError, match="never asked for its keys"):
         give_keys(launcher_end, os.getpid(), "fitter", RING, timeout=0.2)
+    # Another process holds the channel open after the service died: a death, restarted.
+    with pytest.raises(ProcessGone, match="ended before it asked"):
+        give_keys(launcher_end, os.getpid(), "fitter", RING, timeout=30, alive=lambda: False)
     service_end.sendall(b'{"dumpable": false, "tracer": 0}')  # no fresh socket with it
     with pytest.raises(HandoverError, match="carried no fresh socket"):
         give_keys(launcher_end, os.getpid(), "fitter", RING, timeout=5)

@@ -113,7 +113,8 @@ def bus() -> Iterator[Bus]:
 
 
 def _start(bus: Bus, *args: str) -> multiprocessing.Process:
-    argv = ["--stream", STREAM, "--mode", "peer", "--connect", bus.endpoint, *args]
+    argv = ["--stream", STREAM, "--mode", "peer", "--connect", bus.endpoint, "--unverified",
+            *args]  # the test publishes without keys
     process = multiprocessing.get_context("spawn").Process(target=_run_service, args=(argv,))
     process.start()
     return process

@@ -22,6 +22,7 @@ import json
 import os
 import re
 import socket
+import stat
 import sys
 import time
 from pathlib import Path
@@ -41,13 +42,17 @@ class Thief:
         self.seized: list[int] = []
         self.forged: list[socket.socket] = []
         self.caught: set[int] = set()
+        self.why: dict[str, str] = {}
+        """Why each route was first refused (the error)."""
         self.hardened: set[int] = set()
         """Services whose memory was refused once: non-dumpable since (keys may be there)."""
         self.peeked: list[bytes] = []
 
-    def tried(self, route: str, opened: bool) -> None:
+    def tried(self, route: str, opened: bool, why: str = "") -> None:
         counts = self.routes.setdefault(route, {"opened": 0, "refused": 0})
         counts["opened" if opened else "refused"] += 1
+        if why:
+            self.why.setdefault(route, why)
 
     def read(self, route: str, path: str, size: int = 1 << 16, offset: int = 0) -> None:
         try:
@@ -56,8 +61,8 @@ class Thief:
                     f.seek(offset)
                 self.loot.append(f.read(size))
             self.tried(route, True)
-        except OSError:
-            self.tried(route, False)
+        except OSError as exc:
+            self.tried(route, False, exc.strerror or str(exc))
 
     def memory(self, pid: int, route: str) -> None:
         """Read the first writable mapping (a heap) of ``pid``, where keys would be."""
@@ -74,6 +79,22 @@ class Thief:
                 return
         self.tried(route, False)
 
+    def open_fd(self, pid: int, fd: int) -> None:
+        """Open the file ``fd`` of ``pid`` through ``/proc`` (as a pipe of keys could be),
+        without waiting for data."""
+        try:
+            opened = os.open(f"/proc/{pid}/fd/{fd}", os.O_RDONLY | os.O_NONBLOCK)
+        except OSError as exc:
+            self.tried("open /proc/<pid>/fd/N", False, exc.strerror or str(exc))
+            return
+        try:
+            self.loot.append(os.read(opened, 4096))
+        except OSError:
+            pass
+        finally:
+            os.close(opened)
+        self.tried("open /proc/<pid>/fd/N", True)
+
     def steal_fds(self, pid: int) -> None:
         try:
             pidfd = os.pidfd_open(pid)
@@ -84,19 +105,14 @@ class Thief:
             fds = [int(n) for n in os.listdir(f"/proc/{pid}/fd")]
         except OSError:
             fds = list(range(3, 64))
-        for fd in fds:
-            try:
-                os.readlink(f"/proc/{pid}/fd/{fd}")
-                self.read("open /proc/<pid>/fd/N", f"/proc/{pid}/fd/{fd}", 4096)
-            except OSError:
-                self.tried("readlink /proc/<pid>/fd/N", False)
+        for fd in (n for n in fds if n > 2):  # not its standard streams: the run's own
+            self.open_fd(pid, fd)
             got = libc.syscall(SYS_PIDFD_GETFD, pidfd, fd, 0)
-            self.tried("pidfd_getfd", got >= 0)
-            if got >= 0:
-                try:
-                    self.dups.append(socket.socket(fileno=got))
-                except OSError:
-                    os.close(got)  # not a socket
+            self.tried("pidfd_getfd", got >= 0, os.strerror(ctypes.get_errno()))
+            if got >= 0 and stat.S_ISSOCK(os.fstat(got).st_mode):
+                self.dups.append(socket.socket(fileno=got))
+            elif got >= 0:
+                os.close(got)
         os.close(pidfd)
 
     def forge_request(self) -> None:
@@ -122,7 +138,10 @@ class Thief:
         self.steal_fds(pid)
         if self.trace:
             seized = libc.ptrace(PTRACE_SEIZE, pid, 0, 0) == 0
-            self.tried("ptrace seize", seized)
+            why = os.strerror(ctypes.get_errno())
+            if not seized and os.environ.get("THIEF_DEBUG"):
+                why += " " + Path(f"/proc/{pid}/status").read_text()[:600]
+            self.tried("ptrace seize", seized, why)
             if seized:
                 self.seized.append(pid)
         if self.forge:
@@ -146,8 +165,13 @@ class Thief:
             pid = int(entry.name.split("-")[1])
             if pid not in self.caught:
                 self.catch(pid)
-        self.memory(self.launcher, "launcher memory")
-        self.read("launcher environ", f"/proc/{self.launcher}/environ")
+        # Before its first instruction (the interpreter starting) the launcher is readable,
+        # and holds no key; once it refused, never again.
+        once = " once hardened" if self.launcher in self.hardened else ""
+        self.memory(self.launcher, f"launcher memory{once}")
+        self.read(f"launcher environ{once}", f"/proc/{self.launcher}/environ")
+        if not once and not self._readable(self.launcher):
+            self.hardened.add(self.launcher)
         try:
             children = Path(f"/proc/{self.launcher}/task/{self.launcher}/children").read_text()
         except OSError:
@@ -157,9 +181,18 @@ class Thief:
             suffix = " once hardened" if once else ""
             self.memory(pid, f"service memory{suffix}")
             self.read(f"service environ{suffix}", f"/proc/{pid}/environ")
-            if not once and not self._readable(pid):
+            if not once and not self._readable(pid) and self._started(pid):
                 self.hardened.add(pid)  # a process never becomes dumpable again
         self.peek()
+
+    @staticmethod
+    def _started(pid: int) -> bool:
+        """Whether ``pid`` runs a service (past its ``exec``: between ``fork`` and ``exec`` a
+        child is as non-dumpable as the launcher, and becomes dumpable again)."""
+        try:
+            return b"services.stack.child" in Path(f"/proc/{pid}/cmdline").read_bytes()
+        except OSError:
+            return False
 
     @staticmethod
     def _readable(pid: int) -> bool:
@@ -173,7 +206,8 @@ class Thief:
         found = set()
         for chunk in self.loot:
             found |= {m.decode() for m in HEX.findall(chunk)}
-        return {"routes": self.routes, "candidates": sorted(found), "seized": self.seized,
+        return {"routes": self.routes, "why": self.why, "candidates": sorted(found),
+                "seized": self.seized,
                 "caught": sorted(self.caught), "dups": len(self.dups),
                 "loot_bytes": sum(len(c) for c in self.loot),
                 "peeked": [p.decode(errors="replace")[:200] for p in self.peeked]}

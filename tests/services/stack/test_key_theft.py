@@ -105,7 +105,7 @@ def test_a_service_traced_before_it_hardens_is_refused_its_key_and_the_run_stops
     error = [x for x in lines if x.startswith("aamtrack run: error")]
     assert len(error) == 1 and "fitter" in error[0] and "traced" in error[0], lines
     assert report["peeked"] == [], report  # nothing ever came through its channel
-    _refused(report, "launcher memory", "launcher environ")
+    _refused(report, "launcher memory once hardened", "launcher environ once hardened")
 
 
 def test_a_key_request_of_another_process_is_refused_and_the_run_stops(
@@ -117,7 +117,7 @@ def test_a_key_request_of_another_process_is_refused_and_the_run_stops(
     error = [x for x in lines if x.startswith("aamtrack run: error")]
     assert len(error) == 1 and "made by pid" in error[0], lines
     assert set(report["peeked"]) <= {"refused"}, report  # what came back to it
-    _refused(report, "launcher memory", "launcher environ")
+    _refused(report, "launcher memory once hardened", "launcher environ once hardened")
 
 
 def test_no_route_gives_a_key_at_start_at_a_restart_or_while_the_run_lasts(
@@ -132,7 +132,8 @@ def test_no_route_gives_a_key_at_start_at_a_restart_or_while_the_run_lasts(
     keys = read_recording(rec).run_keys
     assert keys is not None and len(keys.keyring.public) >= 5
     assert _stolen(report, set(keys.keyring.public.values())) == []
-    _refused(report, "launcher memory", "launcher environ", "service memory once hardened",
+    _refused(report, "launcher memory once hardened", "launcher environ once hardened",
+             "service memory once hardened",
              "service environ once hardened")
     assert report["peeked"] == [], report
     summary = json.loads((tmp_path / "s.json").read_text())
