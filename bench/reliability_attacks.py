@@ -314,7 +314,8 @@ _HEX = re.compile(rb"(?<![0-9a-f])[0-9a-f]{32,64}(?![0-9a-f])")
 
 def stolen_keys(stack: Stack) -> tuple[list[bytes], str]:
     """Every key-like value in the run's processes' environments and command lines, and
-    whether a key pipe could still be opened: what a same-user process can read there."""
+    whether a key channel could still be opened (a pipe, as in contract v6; a socket cannot
+    be): what a same-user process can read there."""
     found: set[bytes] = set()
     pipes = 0
     for spec in stack.specs:
