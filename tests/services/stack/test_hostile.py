@@ -223,7 +223,7 @@ def test_frames_a_dead_fitter_missed_stay_unanswered_whatever_is_replayed(
     """The fitter killed mid-run: every genuine frame seen so far, replayed unchanged to the
     restarted fitter, is refused ("before the restart"), and the run exits 1 with the
     frames the dead fitter missed counted unanswered."""
-    opts = stack_options(single_face, ar=False, pace="realtime", loop=2)
+    opts = stack_options(single_face, ar=False, pace="realtime", loop=4)
     captured: list[bytes] = []
     lock = threading.Lock()
 
@@ -241,8 +241,13 @@ def test_frames_a_dead_fitter_missed_stay_unanswered_whatever_is_replayed(
         assert pid is not None
         os.kill(pid, signal.SIGKILL)
         incarnations = stack.monitor.incarnations
-        _wait(lambda: ("fitter", 1) in incarnations
-              and incarnations[("fitter", 1)].state == "running", "no restarted fitter")
+
+        def restarted() -> bool:
+            stack.supervisor.check()  # what Stack.wait() does: notice the death, restart
+            return ("fitter", 1) in incarnations and incarnations[("fitter", 1)].state == (
+                "running")
+
+        _wait(restarted, "no restarted fitter")
         with lock:
             replay = list(captured)
         for payload in replay:
