@@ -39,9 +39,11 @@ from services.bus.trust import inherited, inherited_floors, read_keys_file
 
 STATUS_PERIOD = 1.0
 """Seconds between two status messages of a service."""
-RELEASE_EVERY = 5
-"""Status periods between two returns of freed memory to the system (after a flood of
-messages, the allocator would keep its high-water mark)."""
+FLOOD = 200
+"""Rejected or ignored messages that make a flood: once one is over (a status period
+without more), the memory it made the allocator take is given back to the system, which
+would otherwise keep it at its high-water mark (``malloc_trim`` stalls allocations for up
+to a few hundred ms: never done on a schedule)."""
 
 _log = logging.getLogger("aamtrack.bus")
 
@@ -294,12 +296,14 @@ class Service(Receiving, Presence):
             self.log.debug("status not published: %s", exc)
 
     def _status_loop(self) -> None:
-        beats = 0
+        trimmed = last = 0
         while not self._stop.wait(self._status_period):
             self._publish_status()
-            beats += 1
-            if beats % RELEASE_EVERY == 0:
+            bad = self.stats.rejected + self.stats.ignored
+            if bad - trimmed >= FLOOD and bad == last:  # a flood, over for a period now
                 release_memory()
+                trimmed = bad
+            last = bad
 
     def trust_run(self, trust: str = "", timeout: float = 10.0) -> RunKeys:
         """Check everything received from now on against the run's public keys, as its
