@@ -9,6 +9,8 @@ written and flushed as it comes, so a run cut short keeps every row before the c
     x_0 ... x_{N-1}, y_0 ... y_{N-1}, occluded_0 ... occluded_{N-1},
     expression, score_<class> ..., expression_reason, reason
 
+A writer given ``extra`` columns (``aamtrack export``: ``run_id``, ``verified``, what each
+row's messages were checked against) writes them last, the same in every row.
 ``face_id`` is the face's id (:attr:`aamcore.tracker.FaceResult.face_id`), empty for a
 frame without a tracked face.
 ``occluded_i`` is 1 where landmark ``i``'s part of the face is covered (from the
@@ -27,7 +29,7 @@ from __future__ import annotations
 import csv
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
@@ -85,28 +87,33 @@ class ResultWriter:
         Landmarks per face (the columns ``x_i``, ``y_i``).
     class_names : sequence of str
         Expression classes (the columns ``score_<class>``), possibly none.
+    extra : mapping of str to str
+        Columns added after the others, one value for every row.
     """
 
     def __init__(self, path: str | Path, kind: str, n_points: int,
-                 class_names: Sequence[str] = ()) -> None:
+                 class_names: Sequence[str] = (), extra: Mapping[str, str] | None = None
+                 ) -> None:
         if kind not in FORMATS:
             raise ValueError(f"unknown result format {kind!r}: choose one of {FORMATS}")
         self.path = Path(path)
         self.kind = kind
         self.n_points = n_points
         self.class_names = tuple(class_names)
+        self.extra = dict(extra or {})
         self.count = 0
         self._file: TextIO = open(self.path, "w", newline="")  # noqa: SIM115 (closed in close)
         self._csv: Any = None
         if kind == "csv":
             self._csv = csv.writer(self._file)
-            self._csv.writerow(columns(n_points, self.class_names))
+            self._csv.writerow(columns(n_points, self.class_names) + list(self.extra))
 
     def write(self, result: FaceResult) -> None:
         if self._csv is not None:
-            self._csv.writerow(row(result, self.n_points, self.class_names))
+            self._csv.writerow(row(result, self.n_points, self.class_names)
+                               + list(self.extra.values()))
         else:
-            self._file.write(json.dumps(result.to_dict()) + "\n")
+            self._file.write(json.dumps(result.to_dict() | self.extra) + "\n")
         self._file.flush()
         self.count += 1
 

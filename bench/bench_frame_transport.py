@@ -30,7 +30,7 @@ import numpy as np
 
 from aamcore.config import REPO_ROOT
 from proto import Frame, Header, decode
-from proto.auth import Keyring, digest
+from proto.auth import Keyring, message_digest
 from services.bus.connection import BusOptions
 from services.bus.session import Service
 from services.bus.shm import POOL_IMAGES, SLACK
@@ -96,7 +96,7 @@ def copies() -> list[tuple[str, float]]:
         ("before, source: Zenoh copies the bytes it is given", median_ms(
             lambda: zenoh.ZBytes(payload))),
         ("source: hash the pixels for the signature (before and now)",
-         median_ms(lambda: digest(b"", pixels))),
+         median_ms(lambda: message_digest(b"", pixels))),
         (f"now, source: one copy into a shared-memory buffer (a pool of {POOL_IMAGES})",
          median_ms(into_shm)),
         ("subscriber: payload to bytes (no buffer view in zenoh-python's abi3 wheel)",
@@ -105,7 +105,8 @@ def copies() -> list[tuple[str, float]]:
          median_ms(lambda: decode(payload))),
         ("now, subscriber: decode, the pixels a view of the payload",
          median_ms(lambda: decode(payload, "frame"))),
-        ("subscriber: hash to check the signature", median_ms(lambda: digest(b"", payload))),
+        ("subscriber: hash to check the signature",
+         median_ms(lambda: message_digest(b"", payload))),
     ]
 
 

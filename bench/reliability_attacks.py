@@ -273,7 +273,7 @@ def another_runs_key(run: Run, argv: list[str]) -> tuple[bool, str]:
     def during(stack: Stack, intruder: Service) -> None:
         s = box["s"] = Sender(intruder)
         other = Keyring.generate(["source", "fitter"])
-        source, fitter = Keyring(other.keys, "source"), Keyring(other.keys, "fitter")
+        source, fitter = other.for_service("source"), other.for_service("fitter")
         stream, run_id = intruder.stream, stack.run_id
         _wait(lambda: stack.monitor.counts["fit"] >= 10)
         for k in range(FORGED):
@@ -296,9 +296,10 @@ def truncated_signature(run: Run, argv: list[str]) -> tuple[bool, str]:
         _wait(lambda: stack.monitor.counts["fit"] >= 10)
         eos = EndOfStream(Header.now(intruder.stream, 10, "source", run_id=stack.run_id), 11,
                           "end_of_file")
-        payload = Keyring(Keyring.generate(["source"]).keys, "source").encode(eos)
+        payload = Keyring.generate(["source"]).for_service("source").encode(eos)
         auth = decode(payload).header.auth
-        cut = payload.replace(b"\xd9\x20" + auth.encode(), b"\xbf" + auth[:31].encode(), 1)
+        cut = payload.replace(b"\xd9\x80" + auth.encode(), b"\xd9\x7f" + auth[:127].encode(),
+                              1)
         intruder.put(intruder.key("eos"), cut, MUST_ARRIVE)
         _counted(stack, {}, rejected=1)
 
@@ -313,7 +314,8 @@ _HEX = re.compile(rb"(?<![0-9a-f])[0-9a-f]{32,64}(?![0-9a-f])")
 
 def stolen_keys(stack: Stack) -> tuple[list[bytes], str]:
     """Every key-like value in the run's processes' environments and command lines, and
-    whether a key pipe could still be opened: what a same-user process can read there."""
+    whether a key channel could still be opened (a pipe, as in contract v6; a socket cannot
+    be): what a same-user process can read there."""
     found: set[bytes] = set()
     pipes = 0
     for spec in stack.specs:
@@ -350,7 +352,7 @@ def _env_attack(run: Run, argv: list[str], forge: Callable[[Stack, Service, Keyr
         keys, box["note"] = stolen_keys(stack)
         for key in keys:
             s.put("bad signature", intruder.key(kind),
-                  forge(stack, intruder, Keyring({"source": key}, "source")))
+                  forge(stack, intruder, Keyring.from_secrets({"source": key}, "source")))
         unsigned = forge(stack, intruder, Keyring())
         s.put("unsigned", intruder.key(kind), unsigned)
         _counted(stack, s.sent)

@@ -16,7 +16,7 @@ from proto.fields import Int, Str, check_keys, is_int, type_name
 from proto.keys import check_name
 from proto.limits import ProtoError
 
-SCHEMA_VERSION = 6
+SCHEMA_VERSION = 7
 """Version of the message contract; any change to a field or a rule bumps it.
 Version 2: ``run_id`` in the header; ``fit.similarity`` (was ``pose``) and the
 fit's frame size; ``status.lost`` and ``status.ignored``. Version 3:
@@ -24,11 +24,12 @@ fit's frame size; ``status.lost`` and ``status.ignored``. Version 3:
 fit's appearance as one map (nil without one), ``warp_path`` ``none``. Version 5: every face
 in the frame: ``face_id`` in ``fit``, ``pose`` and ``expression``, ``fit.faces``. Version 6:
 ``auth`` signs every message of a run, with its producer's key, over the whole message
-(:mod:`proto.auth`)."""
+(:mod:`proto.auth`). Version 7: ``auth`` is an Ed25519 signature (128 hex digits) of the
+message's digest, which any reader checks with the producer's public key."""
 
 
-AUTH_HEX = 32
-"""Hex digits of a signature (:mod:`proto.auth`)."""
+AUTH_HEX = 128
+"""Hex digits of a signature: an Ed25519 signature of 64 bytes (:mod:`proto.auth`)."""
 _HEX = re.compile(f"[0-9a-f]{{{AUTH_HEX}}}")
 
 

@@ -16,6 +16,8 @@ key                                             what
 ``aamtrack/<stream>/detect``                    the detector's queryable (``Frame`` in,
                                                 ``FaceBoxes`` out)
 ``aamtrack/<stream>/alive/<service>``           liveliness token of a running service
+``aamtrack/<stream>/keys``                      the launcher's queryable: the run's public
+                                                keys, signed by its own (``proto.auth``)
 ==============================================  ===========================================
 
 Stream ids and service names are single key chunks from a safe alphabet, so
@@ -34,6 +36,7 @@ TOPICS = ("frame", "boxes", "fit", "pose", "expression", "overlay", "eos")
 STATUS = "status"
 DETECT = "detect"
 ALIVE = "alive"
+KEYS = "keys"
 OWNERS: dict[str, str] = {
     "frame": "source",
     "eos": "source",
@@ -97,6 +100,11 @@ def alive_key(stream: str, service: str) -> str:
     return f"{ROOT}/{check_name(stream)}/{ALIVE}/{check_name(service, 'service')}"
 
 
+def keys_key(stream: str) -> str:
+    """``aamtrack/<stream>/keys``: the launcher's queryable of the run's public keys."""
+    return f"{ROOT}/{check_name(stream)}/{KEYS}"
+
+
 def stream_wildcard(stream: str) -> str:
     """``aamtrack/<stream>/**``: everything of one stream."""
     return f"{ROOT}/{check_name(stream)}/**"
@@ -133,7 +141,7 @@ def owner_of(key: str) -> str | None:
 def parse_key(key: str) -> tuple[str, str, str | None]:
     """Split a concrete aamtrack key into ``(stream, topic, service)``.
 
-    ``topic`` is a message kind, ``"status"``, ``"detect"`` or ``"alive"``;
+    ``topic`` is a message kind, ``"status"``, ``"detect"``, ``"keys"`` or ``"alive"``;
     ``service`` is set for status and alive keys and ``None`` otherwise.
 
     Raises
@@ -144,7 +152,7 @@ def parse_key(key: str) -> tuple[str, str, str | None]:
     parts = str(key).split("/")
     if len(parts) in (3, 4) and parts[0] == ROOT:
         stream, topic = check_name(parts[1]), parts[2]
-        if len(parts) == 3 and (topic in TOPICS or topic == DETECT):
+        if len(parts) == 3 and (topic in TOPICS or topic in (DETECT, KEYS)):
             return stream, topic, None
         if len(parts) == 4 and topic in (STATUS, ALIVE):
             return stream, topic, check_name(parts[3], "service")

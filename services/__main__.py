@@ -1,6 +1,13 @@
 """``python -m services`` runs the ``aamtrack`` command."""
 
+import contextlib
+import ctypes
 import sys
+
+# Before any other import: a launcher's keys are made later in this process (see
+# services.cli._first_of_all).
+with contextlib.suppress(OSError, AttributeError):
+    ctypes.CDLL(None).prctl(4, 0, 0, 0, 0)  # PR_SET_DUMPABLE 0
 
 try:
     from services.cli import main

@@ -33,6 +33,19 @@ def _check_run_id(value: str) -> None:
     check_run_id(value)
 
 
+FINGERPRINT_MIN_HEX = 16
+"""The shortest prefix of a launcher key's fingerprint ``--trust`` takes."""
+
+
+def check_fingerprint(value: str) -> str:
+    """A ``--trust`` value: empty, or 16 to 32 hex digits of a launcher key's fingerprint."""
+    if value and not (FINGERPRINT_MIN_HEX <= len(value) <= 32
+                      and all(c in "0123456789abcdefABCDEF" for c in value)):
+        return (f"expected {FINGERPRINT_MIN_HEX} to 32 hex digits of the launcher key's "
+                "fingerprint (aamtrack run prints it)")
+    return ""
+
+
 @dataclass(frozen=True)
 class BusOptions(Options):
     """The bus options every service and bus tool takes.
@@ -52,7 +65,12 @@ class BusOptions(Options):
         (and counted). Empty: follow whatever run the stream carries.
     keys : str
         A keys file (:func:`services.bus.trust.read_keys_file`) for a service started on
-        its own; a launcher hands its services their keys through a pipe instead.
+        its own; a launcher hands its services their keys instead
+        (:mod:`services.bus.handover`).
+    trust : str
+        The fingerprint of a launcher's key (:func:`proto.auth.fingerprint`): a process
+        without keys checks what it receives against the public keys that launcher
+        publishes (:mod:`services.bus.run_keys`).
     """
 
     stream: str = option(DEFAULT_STREAM, "stream id", env="AAMTRACK_STREAM",
@@ -70,6 +88,10 @@ class BusOptions(Options):
     keys: str = option("", "keys file of a deployment (aamtrack keys): sign what this "
                        "service publishes, check what it receives", metavar="FILE",
                        env="AAMTRACK_KEYS")
+    trust: str = option("", "check every message against the run's public keys, as the "
+                        "launcher whose key has this fingerprint vouches for them (aamtrack "
+                        "run prints it)", metavar="FP", env="AAMTRACK_TRUST",
+                        check=check_fingerprint)
 
     def config(self) -> Any:
         """The ``zenoh.Config``: from ``zenoh_config`` when given, else multicast

@@ -32,7 +32,7 @@ from proto import Message, ProtoError, decode
 from proto.auth import Keyring
 from proto.keys import owner_of
 from services.bus.stats import FrameNumbering, ServiceStats
-from services.bus.trust import MAX_AGE_S, Replays
+from services.bus.trust import FLOORED, MAX_AGE_S, Floors, Replays, below_floor
 
 
 @dataclass(frozen=True)
@@ -75,11 +75,16 @@ class Screen:
         nothing is checked (a process outside any keyed run).
     restarted : bool
         The service's process is a restart: frames are numbered from the first it sees.
+    floors : Floors, optional
+        A restarted process's high-water marks of its run (:mod:`.trust`): a message of a
+        frame at or below its producer's is ignored (``before the restart``), and so is one
+        published before the process subscribed (:attr:`since_ns`): a frame sent while no
+        process of the service listened was lost, and stays so.
     """
 
     def __init__(
         self, stream: str, run_id: str, stats: ServiceStats, reject: Callable[[str, str], None],
-        keyring: Keyring | None = None, restarted: bool = False,
+        keyring: Keyring | None = None, restarted: bool = False, floors: Floors | None = None,
     ) -> None:
         self.stream = stream
         self.run_id = run_id
@@ -87,6 +92,9 @@ class Screen:
         self.reject = reject
         self.keyring = keyring or Keyring()
         self.restarted = restarted
+        self.floors = dict(floors or {})
+        self.since_ns = 0
+        """In a restarted process, when it first subscribed (:meth:`subscribing`)."""
 
     def check(self, payload: bytes, key: str, kind: str | None,
               replays: Replays | None = None) -> Message | None:
@@ -113,9 +121,18 @@ class Screen:
                 return self.ignore(problem)
             if abs(time.time_ns() - header.publish_time_ns) > MAX_AGE_S * 1e9:
                 return self.ignore("stale")
+            if (self.floors and below_floor(message, self.floors)) or (
+                    header.publish_time_ns < self.since_ns and message.KIND in FLOORED):
+                return self.ignore("before the restart")
             if replays is not None and not replays.first(message):
                 return self.ignore("replayed")
         return message
+
+    def subscribing(self) -> None:
+        """A holder is about to subscribe: in a restarted process, the first time, nothing
+        published before now is this process's to answer."""
+        if self.restarted and not self.since_ns:
+            self.since_ns = time.time_ns()
 
     def ignore(self, reason: str) -> None:
         """Count one well-formed message ignored for ``reason`` (one of :data:`.trust.IGNORED`)."""

@@ -79,7 +79,7 @@ class Presence:
                         else:
                             self._vouched.add(status.service)  # type: ignore[attr-defined]
 
-            for name in self.keyring.keys:  # the statuses it can check, no other
+            for name in self.keyring.public:  # the statuses it can check, no other
                 sub = self.session.declare_subscriber(status_key(self.stream, name),
                                                       zenoh.handlers.Callback(on_status))
                 self._declared.append(sub)
@@ -90,7 +90,7 @@ class Presence:
         and, for those whose key this process holds, up by their last signed status."""
         with self._lock:
             return {name for name in self._alive
-                    if name not in self.keyring.keys or name in self._vouched}
+                    if name not in self.keyring.public or name in self._vouched}
 
     def wait_for_alive(self, services: Iterable[str], timeout: float) -> list[str]:
         """Wait until ``services`` of this stream are alive; return those missing."""

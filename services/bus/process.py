@@ -9,6 +9,7 @@ parent change, whichever comes first.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import logging
 import os
@@ -66,6 +67,14 @@ def parent_pid() -> int | None:
     """The process this one must die with (from :data:`ENV_PARENT`), if any."""
     text = os.environ.get(ENV_PARENT, "")
     return int(text) if text.isdigit() else None
+
+
+def release_memory() -> None:
+    """Give the memory freed since the last call back to the system (glibc's
+    ``malloc_trim``), so that a flood of messages does not leave a process at its
+    high-water mark; no-op elsewhere."""
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None).malloc_trim(0)
 
 
 class StopWatch:

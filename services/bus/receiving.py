@@ -51,6 +51,7 @@ class Receiving:
         return kind_or_key, kind
 
     def _hold(self, holder: Any) -> Any:
+        self.screen.subscribing()
         self._holders.append(holder)
         self.subscribe(holder.key, holder.push)
         return holder
@@ -149,9 +150,16 @@ class Receiving:
         self._declared.append(qbl)
         return qbl
 
-    def querier(self, key: str, timeout: float) -> Any:
-        """Declare a querier of ``key`` with replies awaited ``timeout`` seconds."""
+    def querier(self, key: str, timeout: float, every_reply: bool = False) -> Any:
+        """Declare a querier of ``key`` with replies awaited ``timeout`` seconds; with
+        ``every_reply``, queries reach every queryable of the key and each reply comes as it
+        arrives (none replaces another), so the caller can take the first it trusts."""
+        import zenoh
+
         qos = TOPIC_QOS["fit"].publisher_kwargs()
+        if every_reply:
+            qos |= {"target": zenoh.QueryTarget.ALL,
+                    "consolidation": zenoh.ConsolidationMode.NONE}
         q = self.session.declare_querier(key, timeout=timeout, **qos)
         self._declared.append(q)
         return q

@@ -24,7 +24,7 @@ from collections.abc import Callable
 from typing import Any
 
 from proto import Header, Message, Status, encode
-from proto.auth import Keyring
+from proto.auth import Keyring, RunKeys
 from proto.codec import IMAGE_KINDS, encode_parts
 from proto.keys import alive_key, check_name, topic_key
 from proto.messages import STATES
@@ -32,15 +32,20 @@ from services.bus.connection import BusOptions
 from services.bus.inbox import Screen
 from services.bus.options import OptionError
 from services.bus.presence import Presence
-from services.bus.process import ENV_RESTARTS, StopWatch
+from services.bus.process import ENV_RESTARTS, StopWatch, release_memory
 from services.bus.qos import MUST_ARRIVE, TOPIC_QOS, QoS
 from services.bus.receiving import Receiving
 from services.bus.shm import SharedImages
 from services.bus.stats import ServiceStats
-from services.bus.trust import inherited, read_keys_file
+from services.bus.trust import inherited, inherited_floors, read_keys_file
 
 STATUS_PERIOD = 1.0
 """Seconds between two status messages of a service."""
+FLOOD = 200
+"""Rejected or ignored messages that make a flood: once one is over (a status period
+without more), the memory it made the allocator take is given back to the system, which
+would otherwise keep it at its high-water mark (``malloc_trim`` stalls allocations for up
+to a few hundred ms: never done on a schedule)."""
 
 _log = logging.getLogger("aamtrack.bus")
 
@@ -87,9 +92,11 @@ class Service(Receiving, Presence):
         self.session: Any = None
         self.keyring = keyring if keyring is not None else _keyring_of(bus, self.name)
         if self.keyring and self.keyring.signer != self.name:
-            self.keyring = Keyring(self.keyring.keys)  # checks only: the keys are another's
+            self.keyring = self.keyring.public_only()  # checks only: the key is another's
+        self.run_keys: RunKeys | None = None
+        """The run's keys as its launcher vouched for them, fetched by ``--trust``."""
         self.screen = Screen(self.stream, self.run_id, self.stats, self.reject, self.keyring,
-                             self.restarts > 0)
+                             self.restarts > 0, inherited_floors() if keyring is None else None)
         self.shared_memory = True
         """Whether the host gives the session shared memory (:meth:`_open_session`)."""
         self.images: SharedImages | None = None
@@ -140,6 +147,8 @@ class Service(Receiving, Presence):
                               f"{list(self.bus.listen)}, connect {list(self.bus.connect)}): "
                               f"{exc}") from None
         self._watch.start()
+        if not self.keyring and self.bus.trust:
+            self.trust_run(self.bus.trust)
         if self._announce:
             self._status_thread = threading.Thread(
                 target=self._status_loop, name=f"{self.name}-status", daemon=True)
@@ -324,8 +333,38 @@ class Service(Receiving, Presence):
             self.log.debug("status not published: %s", exc)
 
     def _status_loop(self) -> None:
+        trimmed = last = 0
         while not self._stop.wait(self._status_period):
             self._publish_status()
+            bad = self.stats.rejected + self.stats.ignored
+            if bad - trimmed >= FLOOD and bad == last:  # a flood, over for a period now
+                release_memory()
+                trimmed = bad
+            last = bad
+
+    def trust_run(self, trust: str = "", timeout: float = 10.0) -> RunKeys:
+        """Check everything received from now on against the run's public keys, as its
+        launcher publishes them (:func:`services.bus.run_keys.fetch_run_keys`); only that
+        run's messages pass.
+
+        Raises
+        ------
+        OptionError
+            When no launcher answers, or none that ``trust`` names, or several do.
+        """
+        from services.bus.run_keys import RunKeysError, fetch_run_keys
+
+        try:
+            self.run_keys = fetch_run_keys(self.session, self.stream, trust, timeout,
+                                           self.wait)
+        except RunKeysError as exc:
+            self.close()
+            raise OptionError(str(exc)) from None
+        self.keyring = self.run_keys.keyring
+        self.screen.keyring = self.keyring
+        if self.run_keys.run_id and not self.run_id:
+            self.run_id = self.screen.run_id = self.run_keys.run_id
+        return self.run_keys
 
 
 def _keyring_of(bus: BusOptions, name: str) -> Keyring:

@@ -10,17 +10,41 @@ a command, write a module and list it in ``COMMANDS``.
 
 from __future__ import annotations
 
-import argparse
-import importlib
 import os
 import signal
 import sys
-from collections.abc import Sequence
-
-from services.cli.commands import COMMANDS, canonical
 
 EXIT_INTERRUPTED = 130
 """The exit code of a command stopped by Ctrl-C (128 + SIGINT), as shells give it."""
+
+
+def _interrupted_early(signum: int, frame: object) -> None:
+    os.write(2, b"aamtrack: interrupted\n")
+    os._exit(EXIT_INTERRUPTED)
+
+
+def _first_of_all() -> None:
+    """What the ``aamtrack`` command does before any other import: make itself non-dumpable
+    (a launcher's keys are made later in this process; no other process of the user may
+    read its memory), and end on Ctrl-C with one line while it imports (:func:`main` puts
+    the usual handling in place)."""
+    signal.signal(signal.SIGINT, _interrupted_early)
+    import contextlib
+    import ctypes
+
+    # Where it fails, the launcher says so, and stops, before it makes any key.
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None).prctl(4, 0, 0, 0, 0)  # PR_SET_DUMPABLE 0
+
+
+if os.path.basename(sys.argv[0]) == "aamtrack":  # the console command, not an import
+    _first_of_all()
+
+import argparse  # noqa: E402
+import importlib  # noqa: E402
+from collections.abc import Sequence  # noqa: E402
+
+from services.cli.commands import COMMANDS, canonical  # noqa: E402
 
 
 def _parser(modules: Sequence[str]) -> tuple[argparse.ArgumentParser, argparse._SubParsersAction]:
@@ -63,6 +87,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     # aamtrack's message that says the same; set it to 16 or more to see them.
     os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
     try:
+        if signal.getsignal(signal.SIGINT) is _interrupted_early:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
         return _main(argv, command)
     except KeyboardInterrupt:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C while it stops

@@ -8,6 +8,12 @@ Both connect to the stream's socket in the user's private folder (where
 ``aamtrack run`` listens by default, :mod:`services.bus.runtime`) unless told
 otherwise, publish nothing on the stack's stream, and give up with exit status 1
 when no stack answers within ``--timeout`` seconds.
+
+Neither holds a secret, and both keep only the run's messages: they fetch the run's public
+keys from its launcher (:mod:`services.bus.run_keys`; ``--trust FP`` names the launcher key
+aamtrack run printed) and check every message against them; what fails is counted, said at
+the end, and neither printed nor recorded. ``--unverified`` takes every well-formed
+message of a stack without keys, and says so.
 """
 
 from __future__ import annotations
@@ -64,6 +70,9 @@ def _common(p: argparse.ArgumentParser) -> None:
                    f"(default {DEFAULT_TIMEOUT:g})")
     p.add_argument("--duration", type=float, default=0.0, metavar="S",
                    help="stop after S seconds (default: until stopped)")
+    p.add_argument("--unverified", action="store_true",
+                   help="take every well-formed message, checking no signature (a stack "
+                   "without keys); said in the output")
     add_options(p.add_argument_group("bus"), BusOptions)
 
 
@@ -82,7 +91,51 @@ def _client(args: argparse.Namespace) -> Service | None:
         print(f"aamtrack {args.command}: error: {exc}", file=sys.stderr)
         return None
     init_process(args.command, args.verbose)
-    return Service(args.command, bus, announce=False)
+    return Service(args.command, bus.replace(trust=""), announce=False)
+
+
+def _trusted(svc: Service, args: argparse.Namespace) -> str | None:
+    """Fetch the run's public keys (unless ``--unverified``): what the output is checked
+    against, in words; None, with a message, when no run can be trusted."""
+    if args.unverified:
+        return "UNVERIFIED: no signature checked (--unverified)"
+    if svc.keyring:  # --keys: a deployment's keys file, read for its public keys
+        return f"verified against the public keys of {svc.bus.keys}"
+    try:
+        keys = svc.trust_run(args.trust, args.timeout)
+    except OptionError as exc:
+        print(f"aamtrack {args.command}: error: {exc}", file=sys.stderr)
+        return None
+    anchor = ("trusted by --trust" if args.trust else
+              f"not anchored: the only launcher that answered; give --trust {keys.fingerprint}"
+              " to pin it")
+    return (f"verified against run {keys.run_id or '?'}, launcher key {keys.fingerprint} "
+            f"({anchor})")
+
+
+def _screened(svc: Service, sample: Any, replays: Any) -> tuple[Message | None, bytes]:
+    """The message of a sample if it is the run's (checked when keys are held), and its
+    bytes; None when it is not a message or not the run's (counted)."""
+    from proto.keys import parse_key
+    from proto.limits import ProtoError
+
+    key, payload = str(sample.key_expr), sample.payload.to_bytes()
+    try:
+        topic = parse_key(key)[1]
+    except ProtoError:
+        topic = None
+    if topic in ("alive", "detect", "keys"):
+        return None, payload
+    if not svc.keyring:  # --unverified: any well-formed message
+        return svc.decode(payload, topic, key), payload
+    return svc.screen.check(payload, key, topic, replays), payload
+
+
+def _said_ignored(svc: Service) -> str:
+    s = svc.stats
+    parts = [f"{n} {why}" for why, n in sorted(s.ignored_by.items())]
+    parts += [f"{s.rejected} malformed"] if s.rejected else []
+    return f"; left out (not the run's): {', '.join(parts)}" if parts else ""
 
 
 def _wait_for_peer(svc: Service, timeout: float) -> bool:
@@ -94,13 +147,18 @@ def _wait_for_peer(svc: Service, timeout: float) -> bool:
     return True
 
 
-def _run(svc: Service, args: argparse.Namespace, done: Callable[[], bool]) -> int:
-    """Run until ``done()``, stopped or ``--duration``; 1 when no stack was found."""
+def _found(svc: Service, args: argparse.Namespace) -> bool:
+    """Whether a stack is connected within ``--timeout`` (else said)."""
     if not _wait_for_peer(svc, args.timeout):
         where = ", ".join(svc.bus.connect or svc.bus.listen)
         print(f"aamtrack {args.command}: error: no aamtrack stack answered at {where} within "
               f"{args.timeout:g} s", file=sys.stderr)
-        return 1
+        return False
+    return True
+
+
+def _run(svc: Service, args: argparse.Namespace, done: Callable[[], bool]) -> int:
+    """Run until ``done()``, stopped or ``--duration``."""
     deadline = time.monotonic() + args.duration if args.duration > 0 else math.inf
     while not done() and not svc.wait(0.05) and time.monotonic() < deadline:
         pass
@@ -152,26 +210,34 @@ def describe(msg: Message) -> str:
 
 def cmd_echo(args: argparse.Namespace) -> int:
     """``aamtrack echo KEYEXPR``."""
+    from services.bus.trust import Replays
+
     client = _client(args)
     if client is None:
         return 2
-    done, lock, seen = threading.Event(), threading.Lock(), [0]
+    done, lock, seen, replays = threading.Event(), threading.Lock(), [0], Replays()
     with client as svc:
+        if not _found(svc, args) or (checked := _trusted(svc, args)) is None:
+            return 1
+        print(f"aamtrack echo: {checked}", file=sys.stderr, flush=True)
+
         def on_sample(sample: Any) -> None:
-            msg = svc.decode(sample.payload.to_bytes(), source=str(sample.key_expr))
-            line = (describe(msg) if msg is not None
-                    else f"{'rejected':<10} {sample.key_expr}: see the log for the reason")
+            msg, _ = _screened(svc, sample, replays)
+            if msg is None:
+                return
             with lock:
                 if done.is_set():
                     return
-                print(line, flush=True)
+                print(describe(msg), flush=True)
                 seen[0] += 1
                 if args.count and seen[0] >= args.count:
                     done.set()
 
         svc.subscribe(args.keyexpr, on_sample)
         svc.ready()
-        return _run(svc, args, done.is_set)
+        code = _run(svc, args, done.is_set)
+    print(f"aamtrack echo: {seen[0]} messages, {checked}{_said_ignored(svc)}", file=sys.stderr)
+    return code
 
 
 def record_keys(stream: str, frames: bool, overlays: bool) -> list[str]:
@@ -185,6 +251,7 @@ def record_keys(stream: str, frames: bool, overlays: bool) -> list[str]:
 
 def cmd_record(args: argparse.Namespace) -> int:
     """``aamtrack record --out FILE``."""
+    from services.bus.trust import Replays
     from services.stack.drain import EndOfRun
     from services.stack.preflight import PreflightError, check_output
     from services.stack.recorder import RecordWriter
@@ -197,20 +264,24 @@ def cmd_record(args: argparse.Namespace) -> int:
     client = _client(args)
     if client is None:
         return 2
-    end = EndOfRun(drain_max=args.drain_max)
-    with RecordWriter(args.out) as writer, client as svc:
-        def on_sample(sample: Any) -> None:
-            payload = sample.payload.to_bytes()
-            msg = svc.decode(payload, source=str(sample.key_expr))
-            if msg is None:
-                return
-            writer.write(payload)
-            svc.stats.count_in(msg.header)
-            end.saw(msg)
+    end, replays = EndOfRun(drain_max=args.drain_max), Replays()
+    with client as svc:
+        if not _found(svc, args) or (checked := _trusted(svc, args)) is None:
+            return 1
+        keys = b"" if svc.run_keys is None else svc.run_keys.document
+        with RecordWriter(args.out, keys) as writer:
+            def on_sample(sample: Any) -> None:
+                msg, payload = _screened(svc, sample, replays)
+                if msg is None:
+                    return
+                writer.write(payload)
+                svc.stats.count_in(msg.header)
+                end.saw(msg)
 
-        for key in record_keys(svc.stream, args.frames, args.overlays):
-            svc.subscribe(key, on_sample)
-        svc.ready(f"recording to {args.out}")
-        code = _run(svc, args, end.over if args.until_eos else lambda: False)
-    print(f"recorded {writer.count} messages to {args.out}", file=sys.stderr)
+            for key in record_keys(svc.stream, args.frames, args.overlays):
+                svc.subscribe(key, on_sample)
+            svc.ready(f"recording to {args.out}")
+            code = _run(svc, args, end.over if args.until_eos else lambda: False)
+    print(f"recorded {writer.count} messages to {args.out}, {checked}{_said_ignored(svc)}",
+          file=sys.stderr)
     return code

@@ -1,8 +1,12 @@
 """``aamtrack export`` and ``aamtrack track``: per-frame results for other tools.
 
 - ``aamtrack export RUN.rec --csv OUT.csv`` (or ``--jsonl OUT.jsonl``): one
-  row per frame of a recording made with ``aamtrack run --record``;
-  ``--rrd OUT.rrd`` replays it into a Rerun recording to view.
+  row per frame of a recording made with ``aamtrack run --record`` or ``aamtrack
+  record``; ``--rrd OUT.rrd`` replays it into a Rerun recording to view. Only the
+  messages signed by the run's services are exported, checked with the run's public keys
+  the recording holds (``--trust FP``: the launcher key they must come from); the
+  columns ``run_id`` and ``verified`` say what each row was checked against, and the
+  command says how many messages were left out.
 - ``aamtrack track VIDEO --csv OUT.csv``: the same rows straight from a
   video through the Python API (:class:`aamcore.tracker.FaceTracker`), no bus,
   with the default profile's expressions (``--no-expression``: none) and every option of
@@ -37,6 +41,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("recording", type=Path, help="a .rec file of aamtrack run --record")
     _outputs(p)
     p.add_argument("--rrd", type=Path, help="replay it into this Rerun recording")
+    p.add_argument("--trust", default="", metavar="FP",
+                   help="the fingerprint of the run's launcher key (aamtrack run printed it): "
+                   "refuse a recording of any other run")
     add_annotate(p, export=True)
     p.set_defaults(func=cmd_export)
     p = add_command(subparsers, "track", description="Run the Python API's "
@@ -55,10 +62,11 @@ def _outputs(p: argparse.ArgumentParser) -> None:
     p.add_argument("--jsonl", type=Path, help="write JSON Lines here")
 
 
-def _writers(args: argparse.Namespace, n_points: int, class_names: tuple[str, ...]) -> list:
+def _writers(args: argparse.Namespace, n_points: int, class_names: tuple[str, ...],
+             extra: dict[str, str] | None = None) -> list:
     from aamcore.results import ResultWriter
 
-    return [ResultWriter(path, kind, n_points, class_names)
+    return [ResultWriter(path, kind, n_points, class_names, extra)
             for kind, path in (("csv", args.csv), ("jsonl", args.jsonl)) if path is not None]
 
 
@@ -95,7 +103,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.video is not None and (problem := video_problem(args.video)):
         return _fail("export", f"--video {problem}", 2)
     try:
-        recording = read_recording(args.recording)
+        recording = read_recording(args.recording, trust=args.trust)
     except (RecordingError, OSError) as exc:
         return _fail("export", str(exc), 2)
     exported = results_of(recording.messages)
@@ -105,7 +113,10 @@ def cmd_export(args: argparse.Namespace) -> int:
         if problem := recording_video_problem(args.recording, recording.messages, args.video,
                                               total):
             return _fail("export", problem, 2)
-    writers = _writers(args, exported.n_points, exported.class_names)
+    keys = recording.run_keys
+    writers = _writers(args, exported.n_points, exported.class_names, {
+        "run_id": keys.run_id if keys is not None else "",
+        "verified": f"launcher key {keys.fingerprint}" if keys is not None else "no"})
     try:
         if writers:
             for result in shown(exported.results, "writing rows", len(exported.results), "row"):
@@ -116,7 +127,11 @@ def cmd_export(args: argparse.Namespace) -> int:
             writer.close()
     if args.rrd is not None:
         replay(recording.messages, args.rrd)
-    said = f"exported {len(exported.results)} rows ({frames} frames) of {args.recording}"
+    said = (f"exported {len(exported.results)} rows ({frames} frames) of {args.recording}, "
+            f"{recording.verified}")
+    if recording.ignored:
+        said += ("; left out (not the run's): "
+                 + ", ".join(f"{n} {why}" for why, n in sorted(recording.ignored.items())))
     if args.annotate is not None:
         written, glasses = export_annotated(recording.messages, exported.results, args.video,
                                             args.annotate, total)

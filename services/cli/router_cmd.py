@@ -36,7 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``router`` and ``keys``."""
     k = add_command(
         subparsers, "keys",
-        description="Write a secret key for every service (and the launchers) to a new file "
+        description="Write a key pair for every service (and the launchers) to a new file "
         "of mode 600. Name it in the stack file ([bus] keys = FILE) and copy it to every "
         "host: each service signs what it publishes with its key, and checks what it "
         "receives with the others'.")
@@ -62,13 +62,15 @@ def cmd_keys(args: argparse.Namespace) -> int:
     from services.bus.trust import write_keys_file
     from services.stack.registry import SERVICES
 
+    keyring = Keyring.generate([*SERVICES, "launcher"])
     try:
-        write_keys_file(args.file, Keyring.generate([*SERVICES, "launcher"]))
+        write_keys_file(args.file, keyring)
     except OSError as exc:
         print(f"aamtrack keys: error: {args.file}: {exc.strerror or exc}", file=sys.stderr)
         return 2
-    print(f"wrote {args.file}: keys of {', '.join([*SERVICES, 'launcher'])}; copy it to "
-          "every host (mode 600)")
+    print(f"wrote {args.file}: key pairs of {', '.join([*SERVICES, 'launcher'])}; launcher "
+          f"key {keyring.fingerprint} (readers: --trust {keyring.fingerprint}); copy it to "
+          "every host (mode 600, owned by the user the stack runs as, alone)")
     return 0
 
 

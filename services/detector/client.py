@@ -1,15 +1,23 @@
-"""Asking the detector service for face boxes, with a local Haar detector as fallback."""
+"""Asking the detector service for face boxes, with a local Haar detector as fallback.
+
+A query goes to every queryable on the detector's key (another program may declare one
+too), and its replies come as they arrive, none consolidated into another: the first reply
+signed by the run's detector for the frame asked about is the answer, at once; any other
+(unsigned, another's, for another frame, malformed, an error) is counted as rejected, and
+a queryable that holds the query back costs nothing once the detector has answered.
+"""
 
 from __future__ import annotations
 
 import json
+import threading
 import time
 from typing import Any
 
 import numpy as np
 
 from aamcore.detection.haar import HaarFaceDetector
-from proto import Frame, Header
+from proto import Frame, Header, ProtoError, decode
 from proto.keys import detect_key
 from services.bus.session import Service
 
@@ -41,7 +49,7 @@ class ServiceDetector:
         self.local_for = local_for
         self.queries = 0
         self.local_detections = 0
-        self._querier = svc.querier(detect_key(svc.stream), timeout)
+        self._querier = svc.querier(detect_key(svc.stream), timeout, every_reply=True)
         self._local: HaarFaceDetector | None = None
         self._settings: dict[str, Any] | None = None
         """The detector service's settings, from its latest reply; the local fall-back
@@ -80,26 +88,51 @@ class ServiceDetector:
     def _ask(self, image: np.ndarray) -> np.ndarray | None:
         self.queries += 1
         payload, asked = self._query_for(image)
-        for reply in self._querier.get(payload=payload):
-            if reply.ok is None:
-                self.svc.reject("detector reply", f"error reply: {_err_text(reply)}")
-                continue
-            boxes = self.svc.screen.check(reply.ok.payload.to_bytes(), str(reply.ok.key_expr),
-                                          "boxes")
-            if boxes is None:
-                continue  # counted: malformed, or not the run's detector's
-            if boxes.header.producer != "detector" or (asked is not None and (
-                    boxes.header.capture_time_ns, boxes.header.frame_index)
-                    != (asked.capture_time_ns, asked.frame_index)):
-                self.svc.screen.ignore("not its key's owner" if boxes.header.producer
-                                       != "detector" else "replayed")
-                continue
-            if (boxes.image_width, boxes.image_height) != (image.shape[1], image.shape[0]):
-                self.svc.reject("detector reply", "boxes for a frame of another size")
-                continue
-            self._adopt(reply.ok.attachment)
-            return boxes.boxes.astype(np.float64)
-        return None
+        answered = threading.Event()
+        got: list[tuple[np.ndarray, Any]] = []
+        lock = threading.Lock()
+
+        def on_reply(reply: Any) -> None:
+            boxes, why = self._judge(reply, asked, image.shape)
+            with lock:
+                if boxes is not None and not got:
+                    got.append((boxes, reply.ok.attachment))
+                    answered.set()
+                    return
+            self.svc.reject("detector reply", why or "a second reply of the detector")
+
+        import zenoh
+
+        self._querier.get(zenoh.handlers.Callback(on_reply), payload=payload)
+        if not answered.wait(self.timeout):
+            return None
+        boxes, attachment = got[0]
+        self._adopt(attachment)
+        return boxes
+
+    def _judge(self, reply: Any, asked: Header | None, shape: tuple[int, ...]
+               ) -> tuple[np.ndarray | None, str]:
+        """The boxes of a reply signed by the run's detector for the frame asked about, or
+        why it is not one."""
+        if reply.ok is None:
+            return None, f"error reply: {_err_text(reply)}"
+        payload = reply.ok.payload.to_bytes()
+        try:
+            boxes = decode(payload, "boxes")
+        except ProtoError as exc:
+            return None, exc.reason
+        if boxes.header.producer != "detector":
+            return None, f"boxes of {boxes.header.producer!r}, not the detector's"
+        keyring = self.svc.keyring
+        problem = keyring.problem(payload, boxes) if keyring else ""
+        if problem:
+            return None, f"boxes not the run's detector's: {problem}"
+        if asked is not None and (boxes.header.capture_time_ns, boxes.header.frame_index) != (
+                asked.capture_time_ns, asked.frame_index):
+            return None, "boxes for another frame"
+        if (boxes.image_width, boxes.image_height) != (shape[1], shape[0]):
+            return None, "boxes for a frame of another size"
+        return boxes.boxes.astype(np.float64), ""
 
     def _adopt(self, attachment: Any) -> None:
         """Keep the settings a reply carries, when they are valid ones."""

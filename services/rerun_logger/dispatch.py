@@ -82,6 +82,11 @@ class StreamLogger:
         self.latency.log(msg)
         self.counts[msg.KIND] = self.counts.get(msg.KIND, 0) + 1
 
+    def note(self, text: str) -> None:
+        """An event line of the recording's own, for all of it (what its messages were
+        checked against)."""
+        self._rec.log(ent.EVENTS, rr.TextLog(text), static=True)
+
     def _log_end(self, msg: EndOfStream) -> None:
         self._rec.log(ent.EVENTS,
                       rr.TextLog(f"end of stream after {msg.total_frames} frames: {msg.reason}"))

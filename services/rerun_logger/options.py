@@ -40,6 +40,9 @@ class RerunOptions(Options):
                          metavar="S", check=in_range(0))
     grace: float = option(10.0, "after end of stream, stop after S seconds at most",
                           metavar="S", check=in_range(0))
+    unverified: bool = option(False, "started on its own: log every well-formed message, "
+                              "checking no signature (a stack without keys); said in the "
+                              "recording")
 
     @property
     def has_output(self) -> bool:

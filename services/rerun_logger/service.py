@@ -23,6 +23,10 @@ loopback (``--serve PORT``), to a viewer that runs already (``--viewer
   the void. A viewer that goes away later loses the rest; the file does not.
 - A restarted service never overwrites what its first run wrote: it writes a
   new part beside it (``run.part1.rrd``, ...), of the same recording id.
+- Only the run's messages are logged: inside a run the launcher hands the logger the run's
+  public keys; started on its own it fetches them from the run's launcher (``--trust FP``
+  names its key; without it, the only launcher that answers) and checks every message, or
+  logs everything with ``--unverified``. The recording says which, in its events.
 - The file has no footer (Rerun's index of its chunks, which Rerun would keep in memory
   for the whole run): the logger stays flat over a long run; ``rerun rrd optimize``
   adds the index afterwards.
@@ -42,6 +46,7 @@ from aamcore.pose.head_model import HeadModel, openface68
 from proto.keys import IMAGES, RESULTS, status_wildcard
 from proto.messages import EndOfStream
 from services.bus.args import parse_service_args
+from services.bus.options import OptionError
 from services.bus.process import init_process
 from services.bus.session import Service
 from services.rerun_logger.blueprint import build_blueprint
@@ -134,6 +139,25 @@ def serve_after_end(svc: Service, recording: Recording, linger: float | None) ->
         svc.wait(linger)
 
 
+def verification(svc: Service, opts: RerunOptions) -> str:
+    """What the logged messages are checked against, in words; a logger started on its own
+    fetches the run's public keys first (:meth:`Service.trust_run`).
+
+    Raises
+    ------
+    OptionError
+        When no run's keys can be trusted.
+    """
+    if not svc.keyring and not opts.unverified:
+        svc.trust_run(svc.bus.trust)
+    if svc.run_keys is not None:
+        return (f"every message verified against run {svc.run_keys.run_id or '?'}, launcher "
+                f"key {svc.run_keys.fingerprint}")
+    if svc.keyring:
+        return f"every message verified against the run's keys ({svc.run_id or 'any run'})"
+    return "UNVERIFIED: no signature checked (--unverified)"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the service; return the exit code (0 after end of stream or a stop signal)."""
     args = parse_service_args(NAME, "Log a stream's messages to Rerun (.rrd file, gRPC "
@@ -157,6 +181,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             logger = StreamLogger(recording.stream, load_head_model(opts.head_model),
                                   opts.jpeg_quality, load_glasses(opts.glasses))
+            try:
+                logger.note(verification(svc, opts))
+            except OptionError as exc:
+                print(f"aamtrack service rerun: error: {exc}", file=sys.stderr)
+                return 2
             log_stream(svc, logger, opts)
             _log.info("logged %s", logger.counts)
             if recording.serve_uri is not None and not svc.stopping:

@@ -1,27 +1,39 @@
 """The body of a service process the launcher starts: ``python -m services.stack.child
 MODULE NICE KEYFD ARGV...``.
 
-It makes itself non-dumpable and reads its keys from the inherited pipe ``KEYFD`` (``-``:
-none) before anything else (:mod:`services.bus.trust`), asks to die with the launcher,
-lowers its priority by ``NICE``, imports ``MODULE`` and exits with the code of
-``MODULE.main(ARGV)``.
+It makes itself non-dumpable before anything else, then asks for its keys over the
+inherited socket ``KEYFD`` (``-``: none; :mod:`services.bus.handover`), asks to die with the
+launcher, lowers its priority by ``NICE``, imports ``MODULE`` and exits with the code of
+``MODULE.main(ARGV)``. A launcher that refuses it its keys (it is traced, or cannot be made
+non-dumpable) says why; the process then exits 2 without a word.
 """
 
-from __future__ import annotations
+import contextlib
+import ctypes
 
-import importlib
-import os
-import sys
+# First of all, before any other import: nobody of this user may read or trace it now.
+with contextlib.suppress(OSError, AttributeError):
+    ctypes.CDLL(None).prctl(4, 0, 0, 0, 0)  # PR_SET_DUMPABLE 0
 
-from services.bus.process import die_with_parent
-from services.bus.trust import harden, read_key_pipe
+import importlib  # noqa: E402
+import os  # noqa: E402
+import sys  # noqa: E402
+
+from services.bus import trust  # noqa: E402
+from services.bus.handover import receive_keys  # noqa: E402
+from services.bus.process import die_with_parent  # noqa: E402
+
+EXIT_REFUSED = 2
 
 
 def main(args: list[str]) -> int:
     module, nice, key_fd, *argv = args
-    harden()
+    trust.harden()
     if key_fd != "-":
-        read_key_pipe(int(key_fd))
+        handed = receive_keys(int(key_fd))
+        if handed is None:
+            return EXIT_REFUSED
+        trust.keep(*handed)
     die_with_parent()
     if int(nice):
         os.nice(int(nice))

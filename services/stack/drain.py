@@ -9,6 +9,7 @@ import time
 from typing import TYPE_CHECKING
 
 from services.stack.registry import ANSWERS
+from services.stack.tally import Tally
 
 if TYPE_CHECKING:
     from proto import Message
@@ -37,7 +38,8 @@ class EndOfRun:
     def __init__(self, drain_quiet: float = DRAIN_QUIET, drain_max: float = DRAIN_MAX) -> None:
         self.drain_quiet = drain_quiet
         self.drain_max = drain_max
-        self.fits: set[int] = set()
+        self.fits = Tally()
+        """The frames with a fit (the latest :data:`.tally.WINDOW`)."""
         self.total: int | None = None
         self.eos_at = math.inf
         self.last = time.monotonic()

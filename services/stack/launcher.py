@@ -12,11 +12,15 @@ The launcher
    listens on a socket (with ``--endpoint tcp/...``, a loopback port) of its
    own, and Zenoh's gossip joins them into a mesh (no router, multicast
    scouting off);
-3. gives the run a run id and a secret key per service (:mod:`proto.auth`; across hosts,
-   the keys file the stack file names), handed to each process through a pipe: every
-   service signs what it publishes and accepts only messages of the run signed by their
-   producer, each index once, so processes of another run or another program on the
-   same bus change nothing (they are counted by reason in the summary);
+3. makes itself non-dumpable, then gives the run a run id and a key pair per service and
+   one of its own (:mod:`proto.auth`; across hosts, the keys file the stack file names),
+   each private key handed to its process only once that process is non-dumpable and
+   untraced (:mod:`services.bus.handover`): every service signs what it publishes and
+   accepts only messages of the run signed by their producer, each index once, so
+   processes of another run or another program on the same bus change nothing (they are
+   counted by reason in the summary); it answers ``aamtrack/<stream>/keys`` with the run's
+   public keys signed by its own, whose fingerprint it prints, so that any reader can
+   check every message;
 4. starts each service as its own process (a fresh interpreter in a process group of its own, see
    :mod:`services.stack.supervisor`; each dies with the launcher), the
    source last, once the others hold their liveliness tokens;
@@ -43,9 +47,11 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from proto.auth import Keyring
+from proto.auth import LAUNCHER, Keyring, keys_document
+from proto.keys import keys_key
 from services.bus.args import service_argv
 from services.bus.connection import BusOptions
+from services.bus.handover import HandoverError
 from services.bus.options import OptionError
 from services.bus.runtime import (
     in_use,
@@ -57,17 +63,17 @@ from services.bus.runtime import (
 from services.bus.session import Service
 from services.stack import preflight
 from services.stack.drain import EndOfRun
-from services.stack.hosts import deployment_keys, never_joined, not_joined
+from services.stack.hosts import deployment_keys, never_joined, not_joined, secure_launcher
 from services.stack.monitor import StackMonitor, summary_table
 from services.stack.options import StackOptions
 from services.stack.outcome import EXIT_INPUT, exit_code
 from services.stack.progress import run_progress
 from services.stack.recorder import RecordWriter
-from services.stack.registry import SERVICES, trusted
+from services.stack.registry import SERVICES
 from services.stack.supervisor import ServiceSpec, Supervisor
 
 log = logging.getLogger("aamtrack.launcher")
-NAME = "launcher"
+NAME = LAUNCHER
 FINAL_STATUS_WAIT = 2.0
 """Seconds to wait, once the processes are gone, for their last status messages."""
 BEST_EFFORT = {"ar": 5, "rerun": 5}
@@ -142,7 +148,7 @@ def service_specs(opts: StackOptions, bus: BusOptions, keyring: Keyring | None =
                   ) -> list[ServiceSpec]:
     """The processes of the stack, the source last (waiting for the others). On one host
     each listens where :func:`service_listen` says; across hosts, as ``bus`` says. Each
-    gets the keys it needs from ``keyring`` (:func:`.registry.trusted`)."""
+    gets its own private key from ``keyring`` and every public key."""
     keyring = keyring or Keyring()
     names = [n for n in opts.services if n != "source"]
     specs = []
@@ -156,9 +162,7 @@ def service_specs(opts: StackOptions, bus: BusOptions, keyring: Keyring | None =
         own = bus if opts.bus is not None else bus.replace(
             listen=(service_listen(bus.connect[0], bus.run_id, name),))
         argv = service_argv(own, options, opts.verbose) + opts.extra.get(name, [])
-        checks = trusted(name) | set(options.wait_for if name == "source" else ())
-        checks |= {NAME} if name == "rerun" else set()  # it shows every status
-        keys = keyring.for_service(name, checks) if keyring else Keyring()
+        keys = keyring.for_service(name) if keyring else Keyring()
         specs.append(ServiceSpec(name, SERVICES[name].module, argv,
                                  restart=opts.launch.restart and name != "source",
                                  nice=BEST_EFFORT.get(name, 0), keyring=keys))
@@ -172,7 +176,10 @@ def wait_for_end(svc: Service, sup: Supervisor, mon: StackMonitor, opts: StackOp
     joined = not opts.elsewhere
     deadline = time.monotonic() + opts.launch.start_timeout
     while not svc.wait(0.1):
-        sup.check()
+        try:
+            sup.check()
+        except HandoverError as exc:  # a restarted service could not be given its key
+            return f"refused: {exc}"
         if not joined:
             missing = not_joined(set(mon.statuses), opts)
             joined = not missing
@@ -223,6 +230,8 @@ class Stack:
 
     def __init__(self, opts: StackOptions) -> None:
         self.opts = opts
+        self.insecure = secure_launcher(opts.launch.insecure)
+        """Why this launcher cannot keep its keys from other processes ("" when it can)."""
         stream = opts.launch.stream
         if opts.bus is None:
             self.run_id = f"run-{uuid.uuid4().hex[:12]}"
@@ -231,7 +240,7 @@ class Stack:
             except OptionError as exc:
                 raise preflight.PreflightError(str(exc)) from None
             self.keyring = Keyring.generate([*opts.services, NAME])
-            """The run's keys, one per service (:mod:`proto.auth`)."""
+            """The run's key pairs, one per service and the launcher's (:mod:`proto.auth`)."""
             service_bus = BusOptions(stream, "peer", connect=(self.endpoint,),
                                      run_id=self.run_id)
             own_bus = BusOptions(stream, "peer", listen=(self.endpoint,), run_id=self.run_id)
@@ -241,24 +250,43 @@ class Stack:
             self.run_id = opts.bus.run_id or (
                 f"run-{uuid.uuid4().hex[:12]}" if "source" in opts.services else "")
             self.keyring = deployment_keys(opts)
-            service_bus = own_bus = opts.bus.replace(keys="", run_id=self.run_id)
+            service_bus = own_bus = opts.bus.replace(keys="", trust="", run_id=self.run_id)
+        self.fingerprint = self.keyring.fingerprint
+        """The fingerprint of the launcher's public key: readers trust the run by it."""
         self.specs = service_specs(opts, service_bus, self.keyring)
-        self.supervisor = Supervisor(self.specs, env=SERVICE_ENV)
-        self.recorder = RecordWriter(opts.launch.record) if opts.launch.record else None
-        signer = NAME if NAME in self.keyring.keys else ""
-        self.service = Service(NAME, own_bus, keyring=Keyring(self.keyring.keys, signer))
+        self.recorder = (RecordWriter(opts.launch.record, self.keys_document())
+                         if opts.launch.record else None)
+        self.service = Service(NAME, own_bus, keyring=self.keyring.for_service(NAME))
         self.monitor = StackMonitor(self.service, self.recorder, opts.launch.record_images,
                                     EndOfRun(opts.launch.drain_quiet, opts.launch.drain_max),
                                     expected=list(opts.services))
+        self.supervisor = Supervisor(self.specs, env=SERVICE_ENV,
+                                     floors=self.monitor.restarting,
+                                     insecure=opts.launch.insecure)
         self.exit_codes: dict[str, int | None] = {}
         self.outcome = "stopped"
+
+    def keys_document(self) -> bytes:
+        """The run's public keys signed by the launcher (:func:`proto.auth.keys_document`)."""
+        return keys_document(self.keyring, self.opts.launch.stream, self.run_id)
+
+    def _answer_keys(self, query: Any) -> None:
+        try:
+            query.reply(query.key_expr, self.keys_document())
+        except Exception as exc:  # a query whose asker is gone: nothing to answer
+            log.debug("keys query not answered: %s", exc)
 
     def __enter__(self) -> Stack:
         try:
             self.service.open()
+            self.service.queryable(keys_key(self.opts.launch.stream), self._answer_keys)
             self.monitor.subscribe()
             self.service.ready(f"listening on {self.endpoint}, run {self.run_id}")
             log.info("stack bus at %s (other programs can connect there)", self.endpoint)
+            run = self.run_id or "of the source's host"
+            print(f"aamtrack run: run {run}, launcher key "
+                  f"{self.fingerprint} (readers check the run's messages against it: "
+                  f"--trust {self.fingerprint})", file=sys.stderr, flush=True)
             self.supervisor.start()
         except BaseException:
             self.__exit__(None, None, None)
@@ -293,9 +321,12 @@ class Stack:
 
     def summary(self) -> dict[str, Any]:
         """The run's summary: the monitor's counts, outcome, exit codes and events."""
+        insecure = [self.insecure] if self.insecure else []
         return self.monitor.summary(exclude=NAME) | {
             "run_id": self.run_id, "endpoint": self.endpoint, "outcome": self.outcome,
-            "exit_codes": self.exit_codes, "events": list(self.supervisor.events)}
+            "exit_codes": self.exit_codes, "events": list(self.supervisor.events),
+            "launcher_key": self.fingerprint,
+            "insecure": insecure + list(self.supervisor.insecure_notes)}
 
 
 def prepared(opts: StackOptions) -> StackOptions:
@@ -340,13 +371,14 @@ def _run_stack(opts: StackOptions) -> int:
     try:
         with Stack(opts) as stack:
             stack.wait()
-    except preflight.PreflightError as exc:
+    except (preflight.PreflightError, HandoverError) as exc:
         print(f"aamtrack run: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
     summary = stack.summary()
     print(summary_table(summary))
     if opts.launch.summary:
         Path(opts.launch.summary).write_text(json.dumps(summary, indent=2))
+        Path(f"{opts.launch.summary}.trust").write_text(f"{stack.fingerprint}\n")
     _say_unwritten(opts)
     return exit_code(stack.outcome, summary)
 

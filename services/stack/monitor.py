@@ -4,11 +4,17 @@ Frames and overlays are watched only when they are recorded (their producers' st
 count them otherwise). Everything is screened like a service's input
 (:class:`services.bus.inbox.Screen`): only messages of the run signed by the run's own
 services count, each index once; everything else is ignored or rejected, counted by reason
-in the summary, and the runs of statuses of another run are listed there.
+in the summary, and the runs of statuses of another run are listed there. What it keeps per
+frame is bounded by a window (:mod:`services.stack.tally`), however long the run.
+
+When a service is restarted the monitor hands the new process the run's high-water marks
+(:meth:`StackMonitor.restarting`) and closes the service's answers up to them: a frame its
+predecessor missed stays unanswered whatever comes later.
 """
 
 from __future__ import annotations
 
+import collections
 import math
 import threading
 import time
@@ -17,14 +23,19 @@ from typing import Any
 from proto import EndOfStream, Message, Status, decode
 from proto.keys import status_wildcard
 from services.bus.session import Service
-from services.bus.trust import Replays
+from services.bus.trust import FLOORED, Floors, Replays
 from services.stack.drain import EndOfRun
 from services.stack.recorder import IMAGE_KINDS, RESULT_KINDS, RecordWriter
 from services.stack.registry import SERVICES
+from services.stack.tally import Pairs, Tally
 
 RESULTS = ("fit", "pose", "expression")
 COUNTS = ("frames_in", "frames_out", "dropped", "rejected", "lost", "ignored", "failed")
 """The status counts a summary adds up over a service's processes."""
+LATENCIES = 20_000
+"""Pose latencies kept for the summary's percentiles (the latest)."""
+MAX_FOREIGN_RUNS = 16
+"""Other runs whose statuses are listed in the summary (more are only counted ignored)."""
 
 
 class StackMonitor:
@@ -37,24 +48,24 @@ class StackMonitor:
         """The run's services (those of every host, across hosts)."""
         self.replays = Replays()
         self.recorder = recorder
-        self.indices: dict[str, set[int]] = {k: set() for k in RESULTS}
+        self.indices: dict[str, Tally] = {k: Tally() for k in RESULTS}
+        """Frames answered, per kind of result (a frame "with" an expression has a label)."""
+        self.highest: dict[tuple[str, str], int] = {}
+        """(producer, kind) -> the highest frame index of the run seen."""
         self.counts: dict[str, int] = {k: 0 for k in (*RESULT_KINDS, *IMAGE_KINDS)}
         self.fits_failed = 0
         self.fits_no_face = 0
         self.statuses: dict[str, Status] = {}
         self.incarnations: dict[tuple[str, int], Status] = {}
         """The last status of each process a service has had (by its restart count)."""
-        self.with_face: set[tuple[int, int]] = set()
-        """(frame index, face id) of each fit with landmarks."""
-        self.posed: set[tuple[int, int]] = set()
-        """(frame index, face id) of each pose."""
-        """Frames whose fit has landmarks: each is owed a pose."""
+        self.pairs = Pairs()
+        """Each fit with landmarks is owed a pose."""
         self.foreign: dict[str, set[str]] = {}
         """Run id -> stack services of another run seen on the bus (from their statuses)."""
         self.eos: EndOfStream | None = None
         self.end = end or EndOfRun()
         """When the run's results are all in (:mod:`services.stack.drain`)."""
-        self.pose_latency_ms: list[float] = []
+        self.pose_latency_ms: collections.deque[float] = collections.deque(maxlen=LATENCIES)
         self._lock = threading.Lock()
         self._record_images = record_images
 
@@ -93,29 +104,49 @@ class StackMonitor:
             return
         if status.header.run_id != self.svc.run_id and status.service in SERVICES:
             with self._lock:
-                self.foreign.setdefault(status.header.run_id, set()).add(status.service)
+                if (status.header.run_id in self.foreign
+                        or len(self.foreign) < MAX_FOREIGN_RUNS):
+                    self.foreign.setdefault(status.header.run_id, set()).add(status.service)
 
     def _count(self, msg: Message) -> None:
         self.counts[msg.KIND] += 1
         self.end.saw(msg)
+        h = msg.header
+        if msg.KIND in FLOORED:
+            stream = (h.producer, msg.KIND)
+            self.highest[stream] = max(self.highest.get(stream, -1), h.frame_index)
         # A frame "with" an expression has a label; every fit gets an expression message.
         if msg.KIND in self.indices and (msg.KIND != "expression" or msg.label):
-            self.indices[msg.KIND].add(msg.header.frame_index)
+            self.indices[msg.KIND].add(h.frame_index)
         if msg.KIND == "fit":
             if len(msg.landmarks):
-                self.with_face.add((msg.header.frame_index, msg.face_id))
+                self.pairs.fit((h.frame_index, msg.face_id))
             if msg.failed:
                 self.fits_failed += 1
                 self.fits_no_face += len(msg.landmarks) == 0
         elif msg.KIND == "pose":
-            h = msg.header
-            self.posed.add((h.frame_index, msg.face_id))
+            self.pairs.pose((h.frame_index, msg.face_id))
             self.pose_latency_ms.append((h.publish_time_ns - h.capture_time_ns) / 1e6)
         elif msg.KIND == "status":
             self.statuses[msg.service] = msg
             self.incarnations[(msg.service, msg.restarts)] = msg
         elif msg.KIND == "eos":
             self.eos = msg
+
+    def restarting(self, name: str) -> Floors:
+        """Service ``name`` is being restarted: the run's high-water marks for its new
+        process, and its answers closed up to them (what its predecessor missed stays
+        unanswered, whatever comes later)."""
+        with self._lock:
+            floors = dict(self.highest)
+            for kind in SERVICES[name].publishes if name in SERVICES else ():
+                upto = max((floors.get((p, k), -1) for p, k in floors
+                            if k in SERVICES[name].reads), default=-1)
+                if kind in self.indices:
+                    self.indices[kind].close(upto)
+                if kind == "pose":
+                    self.pairs.close(upto)
+        return floors
 
     def wait_for_final_statuses(self, services: list[str], timeout: float) -> list[str]:
         """Wait until each of ``services`` has sent its last status; return those missing."""
@@ -137,7 +168,9 @@ class StackMonitor:
             return {
                 "total_frames": total,
                 "eos_reason": None if self.eos is None else self.eos.reason,
-                "frames_with": {k: len(v) for k, v in self.indices.items()},
+                "frames_with": {k: v.count for k, v in self.indices.items()},
+                "late": {k: v.late for k, v in self.indices.items()} | {
+                    "pose": self.pairs.late},
                 "messages": self._messages(services),
                 "fits_failed": self.fits_failed,
                 "fits_no_face": self.fits_no_face,
@@ -149,7 +182,6 @@ class StackMonitor:
                 "ignored": dict(sorted(self.svc.stats.ignored_by.items())),
                 "rejected": self.svc.stats.rejected,
             }
-
 
     def _messages(self, services: dict[str, Any]) -> dict[str, int]:
         """Messages of each kind seen; frames and overlays, unless watched, as their
@@ -176,10 +208,10 @@ class StackMonitor:
             dropped = services.get(service, {}).get("dropped", 0)
             return max(0, expected - answered - dropped)
 
-        fits = owed(total, len(self.indices["fit"]), "fitter") if total is not None else 0
+        fits = owed(total, self.indices["fit"].count, "fitter") if total is not None else 0
         poses = 0
         if "pose" in services:
-            poses = owed(len(self.with_face), len(self.posed & self.with_face), "pose")
+            poses = owed(self.pairs.with_face, self.pairs.posed, "pose")
         return {"fit": fits, "pose": poses}
 
 

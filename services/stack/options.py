@@ -19,7 +19,7 @@ from typing import Any
 
 from aamcore.operators.options import PIPELINE, STAGES, PipelineOptions
 from aamcore.profiles import PROFILES, profile_named
-from services.bus.connection import DEFAULT_STREAM, BusOptions
+from services.bus.connection import DEFAULT_STREAM, BusOptions, check_fingerprint
 from services.bus.options import (
     OptionError,
     Options,
@@ -83,6 +83,12 @@ class LaunchOptions(Options):
                                 check=in_range(0))
     drain_max: float = option(DRAIN_MAX, "seconds to wait for results after end of stream",
                               check=in_range(0))
+    insecure: bool = option(False, "run even where a process of the run cannot keep its key "
+                            "from other processes of this user (no prctl, a debugger "
+                            "attached); the summary says so")
+    trust: str = option("", "across hosts: the fingerprint the keys file's launcher key must "
+                        "have (a keys file swapped for another is refused)", metavar="FP",
+                        check=check_fingerprint)
 
 
 @dataclass(frozen=True)

@@ -33,6 +33,9 @@ def exit_code(outcome: str, summary: dict[str, Any]) -> int:
             print(f"aamtrack run: error: {problem}", file=sys.stderr)
             return EXIT_FAILED
         return EXIT_OK
+    if outcome.startswith("refused: "):  # a service could not be given its key safely
+        print(f"aamtrack run: error: {outcome.removeprefix('refused: ')}", file=sys.stderr)
+        return EXIT_INPUT
     if outcome == "stopped":
         print("aamtrack run: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

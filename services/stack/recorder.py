@@ -1,17 +1,25 @@
-"""Recording files: every result message of a stream, to load later.
+"""Recording files: every result message of a stream, checked against the run's keys when
+read.
 
-A recording is the 18 bytes ``AAMTRACK-RECORD-1\\n`` followed by records, each
-a 4-byte little-endian unsigned length and that many bytes of one message
-payload exactly as published (the msgpack encoding of ``proto/README.md``).
-Any program that reads the message contract can read a recording::
+A recording is the 18 bytes ``AAMTRACK-RECORD-2\\n`` followed by records, each a 4-byte
+little-endian unsigned length and that many bytes. The first record is the run's public
+keys as its launcher signed them (:func:`proto.auth.keys_document`; empty in a recording of
+a run without keys); every other is one message payload exactly as published (the msgpack
+encoding of ``proto/README.md``). Any program that reads the message contract can read a
+recording::
 
     from services.stack.recorder import load_messages
     fits = [m for m in load_messages("run.rec") if m.KIND == "fit"]
 
+A reader keeps only the messages signed by the run's services (:func:`read_recording`):
+a recording holds what a reader of the bus received, forged messages included, and each is
+checked again when read. The launcher key it trusts is given with ``trust`` (its
+fingerprint); without it, the key the recording names, as :attr:`Recording.run_keys` says.
+A recording of format 1 (``AAMTRACK-RECORD-1``, no keys) is read unverified.
+
 The writer flushes at least once a second, so a recording whose writer died
 (a killed launcher, a lost machine) keeps all but its last second; a reader
-returns every complete record before a damaged one and says where it stopped
-(:func:`read_recording`).
+returns every complete record before a damaged one and says where it stopped.
 """
 
 from __future__ import annotations
@@ -21,15 +29,18 @@ import struct
 import threading
 import time
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import BinaryIO
 
 from proto import Message, ProtoError, decode
+from proto.auth import RunKeys, read_keys_document
 from proto.codec import payload_limit
-from proto.keys import IMAGES, RESULTS
+from proto.keys import IMAGES, OWNERS, RESULTS
 
-MAGIC = b"AAMTRACK-RECORD-1\n"
+MAGIC = b"AAMTRACK-RECORD-2\n"
+MAGIC_UNVERIFIED = b"AAMTRACK-RECORD-1\n"
+"""Recordings made before they held the run's keys: read, but nothing is verified."""
 RESULT_KINDS = (*RESULTS, "status", "eos")
 """Kinds recorded by default; frames and overlays only when asked."""
 IMAGE_KINDS = IMAGES
@@ -51,9 +62,12 @@ class RecordWriter:
     ----------
     path : path
         The file; created or truncated.
+    keys : bytes
+        The run's keys document (:func:`proto.auth.keys_document`; empty: a run without
+        keys), its first record.
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, keys: bytes = b"") -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.count = 0
@@ -61,7 +75,7 @@ class RecordWriter:
         """Messages that came after :meth:`close`, left out."""
         self._lock = threading.Lock()
         self._file: BinaryIO | None = open(self.path, "wb")  # noqa: SIM115 (closed in close())
-        self._file.write(MAGIC)
+        self._file.write(MAGIC + _LENGTH.pack(len(keys)) + keys)
         self._file.flush()
         self._flushed = time.monotonic()
 
@@ -109,19 +123,34 @@ class Recording:
     Attributes
     ----------
     messages : list of Message
+        The messages kept: those signed by the run's services, when it has keys.
     stopped : str
         Empty when every record was read; else where and why reading stopped
         (a record cut short by a writer that died, or damaged).
+    run_keys : RunKeys, optional
+        The run's keys every message kept was checked against (None: unverified).
+    ignored : dict of str to int
+        Messages left out, by why (:data:`services.bus.trust.IGNORED`).
     """
 
     messages: list[Message]
     stopped: str = ""
+    run_keys: RunKeys | None = None
+    ignored: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def verified(self) -> str:
+        """What the messages were checked against, in words."""
+        if self.run_keys is None:
+            return "unverified (a recording without its run's keys)"
+        return (f"verified: run {self.run_keys.run_id or '?'}, launcher key "
+                f"{self.run_keys.fingerprint}")
 
 
-def _records(f: BinaryIO, path: Path) -> Iterator[tuple[int, int, bytes]]:
-    """``(index, offset, payload)`` of each complete record after the magic; raises at the
+def _records(f: BinaryIO, path: Path, offset: int) -> Iterator[tuple[int, int, bytes]]:
+    """``(index, offset, payload)`` of each complete record from ``offset``; raises at the
     first bad one."""
-    index, offset = 0, len(MAGIC)
+    index = 0
     while head := f.read(_LENGTH.size):
         where = f"{path}: record {index} at byte {offset}"
         if len(head) < _LENGTH.size:
@@ -137,8 +166,25 @@ def _records(f: BinaryIO, path: Path) -> Iterator[tuple[int, int, bytes]]:
         index, offset = index + 1, offset + _LENGTH.size + size
 
 
-def read_recording(path: str | Path, kinds: Iterable[str] | None = None) -> Recording:
-    """Every complete, valid message of a recording (optionally only some kinds).
+def _run_keys(f: BinaryIO, path: Path, trust: str) -> tuple[RunKeys | None, int]:
+    """The run's keys of a recording (after its magic) and where its messages start."""
+    head = f.read(_LENGTH.size)
+    (size,) = _LENGTH.unpack(head) if len(head) == _LENGTH.size else (-1,)
+    data = f.read(size) if 0 <= size <= payload_limit(None) else b""
+    if size < 0 or len(data) != size:
+        raise RecordingError(f"{path}: its run's keys are cut short")
+    if not data:
+        return None, len(MAGIC) + _LENGTH.size
+    try:
+        return read_keys_document(data, trust), len(MAGIC) + _LENGTH.size + size
+    except ValueError as exc:
+        raise RecordingError(f"{path}: {exc}") from None
+
+
+def read_recording(path: str | Path, kinds: Iterable[str] | None = None, trust: str = ""
+                   ) -> Recording:
+    """Every complete, valid message of a recording (optionally only some kinds) signed by
+    its run's services (:class:`RecordingCheck`).
 
     Reading stops at the first record that is cut short, oversized or does
     not decode; what came before it is returned and :attr:`Recording.stopped`
@@ -147,7 +193,8 @@ def read_recording(path: str | Path, kinds: Iterable[str] | None = None) -> Reco
     Raises
     ------
     RecordingError
-        When the file is not a recording at all.
+        When the file is not a recording at all, its keys are not its launcher's, or its
+        launcher is not the one ``trust`` names.
     OSError
         When it cannot be read.
     """
@@ -155,25 +202,66 @@ def read_recording(path: str | Path, kinds: Iterable[str] | None = None) -> Reco
     wanted = None if kinds is None else set(kinds)
     messages: list[Message] = []
     with open(path, "rb") as f:
-        if f.read(len(MAGIC)) != MAGIC:
+        magic = f.read(len(MAGIC))
+        if magic not in (MAGIC, MAGIC_UNVERIFIED):
             raise RecordingError(f"{path}: not an aamtrack recording (bad magic)")
+        run_keys, start = _run_keys(f, path, trust) if magic == MAGIC else (None, len(MAGIC))
+        if run_keys is None and trust:
+            raise RecordingError(f"{path}: holds no run's keys to check against --trust")
+        check = RecordingCheck(run_keys)
         try:
-            for index, offset, payload in _records(f, path):
+            for index, offset, payload in _records(f, path, start):
                 try:
                     msg = decode(payload)
                 except ProtoError as exc:
                     raise RecordingError(f"{path}: record {index} at byte {offset} does not "
                                          f"decode: {exc.reason}") from None
-                if wanted is None or msg.KIND in wanted:
+                if (wanted is None or msg.KIND in wanted) and check.keeps(payload, msg):
                     messages.append(msg)
         except RecordingError as exc:
-            return Recording(messages, str(exc))
-    return Recording(messages)
+            return Recording(messages, str(exc), run_keys, check.ignored)
+    return Recording(messages, "", run_keys, check.ignored)
+
+
+class RecordingCheck:
+    """Which recorded messages are the run's: signed by the service that owns their kind (a
+    status by its service), of the run, each index once; None keys: every one."""
+
+    def __init__(self, run_keys: RunKeys | None) -> None:
+        from services.bus.trust import Replays
+
+        self.run_keys = run_keys
+        self.replays = Replays()
+        self.ignored: dict[str, int] = {}
+
+    def _why(self, payload: bytes, msg: Message) -> str:
+        assert self.run_keys is not None
+        h = msg.header
+        owner = msg.service if msg.KIND == "status" else OWNERS.get(msg.KIND)  # type: ignore
+        if h.producer != owner:
+            return "not its key's owner"
+        if self.run_keys.run_id and h.run_id != self.run_keys.run_id and h.run_id:
+            return "another run"
+        problem = self.run_keys.keyring.problem(payload, msg)
+        if problem:
+            return problem
+        return "" if self.replays.first(msg) else "replayed"
+
+    def keeps(self, payload: bytes, msg: Message) -> bool:
+        if self.run_keys is None:
+            return True
+        why = self._why(payload, msg)
+        if why:
+            self.ignored[why] = self.ignored.get(why, 0) + 1
+        return not why
 
 
 def load_messages(path: str | Path, kinds: Iterable[str] | None = None) -> list[Message]:
     """The messages of :func:`read_recording`, warning when reading stopped early."""
     recording = read_recording(path, kinds)
+    if recording.ignored:
+        log.warning("left out %s messages not signed by the run's services",
+                    sum(recording.ignored.values()))
     if recording.stopped:
         log.warning("read %d messages, then stopped: %s", len(recording.messages),
                     recording.stopped)

@@ -69,22 +69,6 @@ ANSWERS = tuple(kind for s in SERVICES.values() if s.name != "source" for kind i
 it still comes, a run that reached its end of stream is not over (:mod:`.drain`)."""
 
 
-def trusted(name: str) -> set[str]:
-    """The services whose messages service ``name`` checks (:mod:`proto.auth`): the
-    producers of what it reads, the services it asks and those that ask it (a query carries
-    a frame, of the source or of the asker); the Rerun logger, which shows every status,
-    checks every service."""
-    if name == "rerun":
-        return set(SERVICES)
-    info = SERVICES[name]
-    found = {p for kind in info.reads for p in producers(kind)}
-    found |= {s.name for s in SERVICES.values() if set(s.answers) & set(info.asks)}
-    if info.answers:
-        found |= {s.name for s in SERVICES.values() if set(s.asks) & set(info.answers)}
-        found |= set(producers("frame"))
-    return found
-
-
 def readers(kind: str) -> list[str]:
     """The services that read ``kind``."""
     return [s.name for s in SERVICES.values() if kind in s.reads]

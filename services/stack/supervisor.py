@@ -4,9 +4,11 @@ Every service runs in a new Python process (``python -m
 services.stack.child MODULE NICE KEYFD ARGV...``: fork and exec at once, never a
 bare fork, since a forked copy of a process holding a Zenoh session or a GL
 context hangs or publishes nothing). The child imports the service module and
-calls its ``main(argv)``. Its keys (:class:`proto.auth.Keyring`) come through a pipe
-whose read end is its file ``KEYFD``, written and closed by the launcher as the process
-starts: never in its environment or on its command line.
+calls its ``main(argv)``. Its keys (:class:`proto.auth.Keyring`) are handed over once it
+is non-dumpable and untraced, over a socket pair whose end it inherits as its file
+``KEYFD`` (:mod:`services.bus.handover`): never in its environment or on its command line.
+A process that cannot be given its keys safely stops the run (:class:`HandoverError`),
+unless the supervisor is ``insecure``, which it then notes.
 
 Each service gets a process group of its own, so that a terminal's Ctrl-C
 reaches the launcher alone: a service still importing its modules cannot die
@@ -27,16 +29,19 @@ from __future__ import annotations
 import logging
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import services
 from proto.auth import Keyring
+from services.bus.handover import HandoverError, ProcessGone, give_keys, spawn_channel
 from services.bus.process import ENV_PARENT, ENV_RESTARTS
+from services.bus.trust import Floors
 
 log = logging.getLogger("aamtrack.launcher")
 ROOT = str(Path(services.__file__).resolve().parent.parent)
@@ -45,8 +50,8 @@ ROOT = str(Path(services.__file__).resolve().parent.parent)
 
 def child_command(module: str, argv: Sequence[str], nice: int = 0, key_fd: int | None = None
                   ) -> list[str]:
-    """The command line of a service process running ``module.main(argv)`` (its keys in the
-    inherited pipe ``key_fd``, when given)."""
+    """The command line of a service process running ``module.main(argv)`` (its keys over
+    the inherited socket ``key_fd``, when given)."""
     fd = "-" if key_fd is None else str(key_fd)
     return [sys.executable, "-m", "services.stack.child", module, str(nice), fd, *argv]
 
@@ -76,7 +81,7 @@ class ServiceSpec:
         Niceness added to the process: best-effort stages (overlays, logging)
         yield the CPU to the tracking path.
     keyring : Keyring, optional
-        The keys handed to the process (through a pipe; none when empty).
+        The keys handed to the process (:mod:`services.bus.handover`; none when empty).
     """
 
     name: str
@@ -95,6 +100,8 @@ class _Managed:
     restart_at: float | None = None
     exitcode: int | None = None
     gave_up: bool = False
+    refused: bool = False
+    """Refused its keys and killed (:meth:`Supervisor._hand`)."""
 
 
 class Supervisor:
@@ -111,46 +118,87 @@ class Supervisor:
         Restarts per service before giving up on it.
     backoff, max_backoff : float
         First and largest wait before a restart, seconds.
+    floors : callable, optional
+        ``floors(name)``: the run's high-water marks handed to a restarted service.
+    insecure : bool
+        Hand a process its keys even when it is traced or dumpable (noted in
+        :attr:`insecure_notes`); without it such a process stops the run.
     """
 
     def __init__(
         self, specs: Sequence[ServiceSpec], env: Mapping[str, str] | None = None,
         max_restarts: int = 5, backoff: float = 0.5, max_backoff: float = 8.0,
+        floors: Callable[[str], Floors] | None = None, insecure: bool = False,
     ) -> None:
         self._env = dict(env or {})
         self._managed = {s.name: _Managed(s) for s in specs}
         self.max_restarts = max_restarts
         self.backoff = backoff
         self.max_backoff = max_backoff
+        self.floors = floors
+        self.insecure = insecure
+        self.insecure_notes: list[str] = []
+        """Each process handed its keys though it could not keep them safe (insecure)."""
         self.events: list[str] = []
 
     def start(self, names: Sequence[str] | None = None) -> None:
-        """Start the named services (all by default)."""
-        for name in names if names is not None else list(self._managed):
-            self._start(self._managed[name])
+        """Start the named services (all by default): every process first, then each one's
+        keys as it asks for them.
+
+        Raises
+        ------
+        HandoverError
+            When a process cannot be given its keys safely (it is stopped).
+        """
+        chosen = [self._managed[n] for n in (names if names is not None else self._managed)]
+        for m, channel in [(m, self._spawn(m)) for m in chosen]:
+            self._hand(m, channel)
 
     def _start(self, m: _Managed) -> None:
+        self._hand(m, self._spawn(m))
+
+    def _spawn(self, m: _Managed) -> socket.socket | None:
+        """Start ``m``'s process; the launcher's end of its key channel (None: no keys)."""
         env = {**self._env, ENV_RESTARTS: str(m.restarts), ENV_PARENT: str(os.getpid())}
-        keys = m.spec.keyring.to_bytes() if m.spec.keyring else b""
-        read_end, write_end = os.pipe() if keys else (None, None)
+        channel, service_end = spawn_channel() if m.spec.keyring else (None, None)
+        fd = None if service_end is None else service_end.fileno()
         try:
             m.process = subprocess.Popen(
-                child_command(m.spec.module, m.spec.argv, m.spec.nice, read_end),
+                child_command(m.spec.module, m.spec.argv, m.spec.nice, fd),
                 env=child_environment(env), stdin=subprocess.DEVNULL, process_group=0,
-                pass_fds=() if read_end is None else (read_end,),
+                pass_fds=() if fd is None else (fd,),
             )
         except BaseException:
-            if write_end is not None:
-                os.close(write_end)
+            if channel is not None:
+                channel.close()
             raise
         finally:
-            if read_end is not None:
-                os.close(read_end)
-        if write_end is not None:
-            with os.fdopen(write_end, "wb") as pipe:  # a few hundred bytes: never blocks
-                pipe.write(keys)
+            if service_end is not None:
+                service_end.close()
         m.exitcode, m.restart_at = None, None
         log.debug("started %s (pid %s)", m.spec.name, m.process.pid)
+        return channel
+
+    def _hand(self, m: _Managed, channel: socket.socket | None) -> None:
+        """Give ``m``'s process its keys (and, restarted, the run's floors) once it is safe."""
+        if channel is None or m.process is None:
+            return
+        floors = self.floors(m.spec.name) if m.restarts and self.floors else None
+        process = m.process
+        with channel:
+            try:
+                handed = give_keys(channel, process.pid, m.spec.name, m.spec.keyring,
+                                   floors, self.insecure,
+                                   alive=lambda: process.poll() is None)
+            except ProcessGone:  # died on its way up: restarted as any death is
+                return
+            except HandoverError:
+                m.gave_up = m.refused = True
+                m.process.kill()  # a tracer may keep it unreaped: never waited for long
+                raise
+        if handed.problem:
+            self.insecure_notes.append(handed.problem)
+            self._note(f"{handed.problem}: handed its key anyway (--insecure)")
 
     def pid(self, name: str) -> int | None:
         """Process id of a running service."""
@@ -220,10 +268,16 @@ class Supervisor:
         deadline = time.monotonic() + timeout
         for m, p in running:
             try:
-                p.wait(max(0.0, deadline - time.monotonic()))
+                p.wait(0.5 if m.refused else max(0.0, deadline - time.monotonic()))
             except subprocess.TimeoutExpired:
+                if m.refused:  # killed already, and its tracer holds it: nothing to say
+                    continue
                 log.error("%s did not stop within %g s: killing it", m.spec.name, timeout)
                 p.kill()
-                p.wait(2.0)
+                try:
+                    p.wait(2.0)
+                except subprocess.TimeoutExpired:  # killed, but its tracer has not let go
+                    log.error("%s (pid %s) was killed but cannot be reaped (traced?)",
+                              m.spec.name, p.pid)
             m.exitcode = p.returncode
         return {n: m.exitcode for n, m in self._managed.items()}

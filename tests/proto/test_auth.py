@@ -1,5 +1,6 @@
-"""proto.auth: every message signed by its producer's key, over the header and the body as it
-travels; nothing else passes for it."""
+"""proto.auth: every message signed by its producer's private key (Ed25519 over the message's
+digest), over the header and the body as it travels, and checked with its public key alone;
+nothing else passes for it. The launcher's signed document of a run's public keys."""
 
 from __future__ import annotations
 
@@ -13,17 +14,25 @@ from proto import EndOfStream, Frame, Header, decode, encode
 from proto.auth import (
     KEY_BYTES,
     Keyring,
-    digest,
     encode_signed,
     encode_signed_parts,
+    fingerprint,
     is_signed,
-    sign_digest,
-    verifies,
+    keys_document,
+    message_digest,
+    public_key,
+    read_keys_document,
+    sign,
+    verify,
 )
 from proto.codec import encode_parts
 from proto.limits import ProtoError
 
 KEY = bytes(range(KEY_BYTES))
+PUBLIC = public_key(KEY)
+DIGEST = "5226194dbe5befdf0274b47e06adc4aafee05e709f1c8680fc6fd4bb6caf8c1b"
+SIGNATURE = ("d68c353e37c2e72ee1b60b8af927d7ed084324bd6e7f18244922513564c9dafb"
+             "677735faf641f17e171a4f63e56e22ea4cd3a2b0edecc42adcf82d775ffd7301")
 
 
 def _header(index: int = 42) -> Header:
@@ -42,18 +51,24 @@ def _frame(image: np.ndarray) -> Frame:
 def test_a_signed_message_decodes_to_itself_and_passes() -> None:
     payload = encode_signed(KEY, _eos())
     eos = decode(payload, "eos")
-    assert len(eos.header.auth) == 32 and is_signed(KEY, payload, eos)
+    assert len(eos.header.auth) == 128 and is_signed(PUBLIC, payload, eos)
     assert replace(eos, header=replace(eos.header, auth="")) == _eos()
     assert payload == encode(eos)  # laid out as the codec lays out any message
-    # A test vector for other implementations: keyed BLAKE3 of the message's digest.
-    assert eos.header.auth == "b62df60dbbc28c89c9ab868e7ca662c0"
+    # Test vectors for other implementations: the digest, and Ed25519's deterministic
+    # signature of it (RFC 8032) by the private key 00 01 .. 1f.
+    digest = message_digest(msgpack.packb(_eos().header.to_dict("eos")),
+                            msgpack.packb(_eos().to_dict(), use_bin_type=True))
+    assert digest.hex() == DIGEST
+    assert eos.header.auth == sign(KEY, digest).hex() == SIGNATURE
+    assert verify(PUBLIC, digest, bytes.fromhex(SIGNATURE))
+    assert not verify(PUBLIC, bytes(32), bytes.fromhex(SIGNATURE))
 
 
 def test_the_signature_covers_the_pixels_their_shape_and_channels() -> None:
     image = np.arange(24 * 32 * 3, dtype=np.uint8).reshape(24, 32, 3)
     payload = encode_signed(KEY, _frame(image))
     frame = decode(payload, "frame")
-    assert is_signed(KEY, payload, frame)
+    assert is_signed(PUBLIC, payload, frame)
     auth = frame.header.auth
 
     def resigned_header_on(other: Frame) -> bytes:
@@ -65,22 +80,22 @@ def test_the_signature_covers_the_pixels_their_shape_and_channels() -> None:
     for other in (_frame(black), _frame(image.reshape(48, 16, 3)),
                   _frame(np.ascontiguousarray(image[:, :, 0]))):
         forged = resigned_header_on(other)
-        assert not is_signed(KEY, forged, decode(forged, "frame"))
+        assert not is_signed(PUBLIC, forged, decode(forged, "frame"))
 
 
 def test_another_key_a_cut_signature_or_a_changed_header_does_not_pass() -> None:
     payload = encode_signed(KEY, _eos())
     eos = decode(payload, "eos")
-    assert not is_signed(bytes(KEY_BYTES), payload, eos)  # another run's key
+    assert not is_signed(public_key(bytes(KEY_BYTES)), payload, eos)  # another run's key
     unsigned = encode(_eos())
-    assert not is_signed(KEY, unsigned, decode(unsigned))
+    assert not is_signed(PUBLIC, unsigned, decode(unsigned))
     for changed in (replace(eos, total_frames=1),
                     replace(eos, header=replace(eos.header, frame_index=0)),
                     replace(eos, header=replace(eos.header, producer="fitter"))):
         forged = encode(changed)
-        assert not is_signed(KEY, forged, decode(forged))
-    with pytest.raises(ProtoError, match="header.auth: expected empty or 32 lower-case hex"):
-        replace(eos.header, auth=eos.header.auth[:31])  # a truncated signature is malformed
+        assert not is_signed(PUBLIC, forged, decode(forged))
+    with pytest.raises(ProtoError, match="header.auth: expected empty or 128 lower-case hex"):
+        replace(eos.header, auth=eos.header.auth[:127])  # a truncated signature is malformed
 
 
 def test_a_header_re_encoded_otherwise_does_not_pass() -> None:
@@ -92,24 +107,51 @@ def test_a_header_re_encoded_otherwise_does_not_pass() -> None:
                      "kind": obj["header"].pop("kind")} | obj["header"]
     other = msgpack.packb(obj)
     assert other != payload
-    assert not is_signed(KEY, other, decode(other))
+    assert not is_signed(PUBLIC, other, decode(other))
 
 
-def test_a_keyring_gives_each_service_its_own_key_and_the_keys_of_what_it_reads() -> None:
+def test_a_keyring_gives_each_service_its_own_key_and_every_public_one() -> None:
     ring = Keyring.generate(["source", "fitter", "pose"])
-    pose = ring.for_service("pose", ["fitter"])
-    assert pose.signer == "pose" and set(pose.keys) == {"pose", "fitter"}
+    pose = ring.for_service("pose")
+    assert pose.signer == "pose" and set(pose.secrets) == {"pose"}
+    assert set(pose.public) == {"source", "fitter", "pose"}
     assert Keyring.from_bytes(pose.to_bytes()) == pose
-    source = ring.for_service("source", [])
+    source = ring.for_service("source")
     payload = source.encode(_eos())
-    assert ring.problem(payload, decode(payload)) == ""
-    assert pose.problem(payload, decode(payload)) == "not a service of the run"
-    assert Keyring.generate(["source"]).problem(payload, decode(payload)) == "bad signature"
+    reader = ring.public_only()  # no secret at all
+    assert not reader.secrets and reader.problem(payload, decode(payload)) == ""
+    assert Keyring(ring.public_only().public | {"source": PUBLIC}).problem(
+        payload, decode(payload)) == "bad signature"
+    assert Keyring({"fitter": ring.public["fitter"]}).problem(
+        payload, decode(payload)) == "not a service of the run"
     assert ring.problem(encode(_eos()), _eos()) == "unsigned"
-    with pytest.raises(ValueError, match="not an aamtrack-keyring-1 keyring"):
-        Keyring.from_bytes(b'{"keys": {}}')
+    with pytest.raises(ValueError, match="not an aamtrack-keyring-2 keyring"):
+        Keyring.from_bytes(b'{"public": {}}')
     with pytest.raises(ValueError, match="is not 32 bytes"):
         Keyring({"source": b"short"})
+    with pytest.raises(ValueError, match="not its public key's"):
+        Keyring({"source": PUBLIC}, {"source": bytes(KEY_BYTES)})
+
+
+def test_a_run_s_keys_document_is_its_launcher_s_and_trusted_by_its_fingerprint() -> None:
+    ring = Keyring.generate(["source", "fitter", "launcher"])
+    document = keys_document(ring, "cam0", "run-1")
+    keys = read_keys_document(document)
+    assert keys.keyring == ring.public_only() and (keys.stream, keys.run_id) == ("cam0", "run-1")
+    assert keys.fingerprint == fingerprint(ring.public["launcher"]) == ring.fingerprint
+    assert read_keys_document(document, ring.fingerprint[:16]).keyring == keys.keyring
+    forger = Keyring.generate(["source", "fitter", "launcher"])  # a forged run's own keys
+    forged = keys_document(forger, "cam0", "run-1")
+    assert read_keys_document(forged).fingerprint != ring.fingerprint
+    with pytest.raises(ValueError, match="is not the trusted"):
+        read_keys_document(forged, ring.fingerprint)
+    # The real launcher's signature over another run's public keys does not pass.
+    swapped = msgpack.unpackb(forged)
+    swapped["signature"] = msgpack.unpackb(document)["signature"]
+    with pytest.raises(ValueError, match="not signed by its launcher"):
+        read_keys_document(msgpack.packb(swapped))
+    with pytest.raises(ValueError, match="not a run's keys"):
+        read_keys_document(b"\x01garbage")
 
 
 def test_a_frame_is_signed_over_its_pixels_where_they_lie() -> None:
@@ -125,12 +167,13 @@ def test_a_frame_is_signed_over_its_pixels_where_they_lie() -> None:
     payload = b"".join(parts)
     assert payload == encode_signed(KEY, frame)
     signed = decode(payload, "frame")
-    assert is_signed(KEY, payload, signed)
+    assert is_signed(PUBLIC, payload, signed)
     unsigned = encode_parts(frame)
     assert unsigned[-1] is buffer and b"".join(unsigned) == encode(frame)
     head = msgpack.packb(signed.header.to_dict("frame") | {"auth": ""})
     body = payload[payload.index(b"\xa4body") + 5:]
-    assert verifies(KEY, digest(head, body), signed.header.auth)
-    assert sign_digest(KEY, digest(head, body)) == signed.header.auth
-    assert not verifies(KEY, digest(head, body[:-1] + b"\x00"), signed.header.auth)
-    assert not verifies(bytes(KEY_BYTES), digest(head, body), signed.header.auth)
+    signature = bytes.fromhex(signed.header.auth)
+    assert verify(PUBLIC, message_digest(head, body), signature)
+    assert sign(KEY, message_digest(head, body)) == signature
+    assert not verify(PUBLIC, message_digest(head, body[:-1] + b"\x00"), signature)
+    assert not verify(public_key(bytes(KEY_BYTES)), message_digest(head, body), signature)

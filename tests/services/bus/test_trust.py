@@ -1,5 +1,6 @@
 """services.bus.trust and the screen of a run with keys: each bad input ignored and counted
-by its reason, one index answered once, state bounded; keys reach a process through a pipe.
+by its reason, one index answered once, a restarted service's floors, state bounded; a keys
+file's owner, mode and keys checked; keys reach a process only once it is non-dumpable.
 
 The screen is a plain function of the payload, so these tests call it directly: no bus,
 no timing.
@@ -7,6 +8,7 @@ no timing.
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import time
@@ -34,9 +36,10 @@ RUN = "run-test"
 RING = Keyring.generate(["source", "fitter", "pose"])
 
 
-def _screen(stats: ServiceStats, rejected: list[str], run: str = RUN) -> Screen:
+def _screen(stats: ServiceStats, rejected: list[str], run: str = RUN,
+            floors: dict | None = None) -> Screen:
     return Screen("cam0", run, stats, lambda source, reason: rejected.append(reason),
-                  RING.for_service("pose", ["source", "fitter"]))
+                  RING.for_service("pose"), floors=floors)
 
 
 def _frame(index: int, image: np.ndarray | None = None, run: str = RUN) -> Frame:
@@ -57,7 +60,7 @@ def _status(service: str, dropped: int = 0) -> Status:
 
 
 def _signed(name: str, message: object) -> bytes:
-    return Keyring(RING.keys, name).encode(message)  # type: ignore[arg-type]
+    return RING.for_service(name).encode(message)  # type: ignore[arg-type]
 
 
 def test_each_bad_input_is_ignored_and_counted_by_its_reason() -> None:
@@ -69,7 +72,7 @@ def test_each_bad_input_is_ignored_and_counted_by_its_reason() -> None:
     other_run = Keyring.generate(["source", "fitter"])
     black = replace(_frame(3, np.zeros((24, 32, 3), np.uint8)), header=_decoded_header(real))
     cases = [  # (reason, key, payload)
-        ("bad signature", frame, Keyring(other_run.keys, "source").encode(_frame(4))),
+        ("bad signature", frame, other_run.for_service("source").encode(_frame(4))),
         ("bad signature", frame, encode(black)),  # the real frame's header on other pixels
         ("unsigned", fit, encode(_fit(3))),
         ("unsigned", status + "fitter", encode(_status("fitter", dropped=100_000))),
@@ -87,8 +90,8 @@ def test_each_bad_input_is_ignored_and_counted_by_its_reason() -> None:
     assert dict(stats.ignored_by) == counted and stats.ignored == len(cases)
     assert not rejected
     # A signature cut short is malformed: rejected (the callback counts it), never acted on.
-    cut = real.replace(b"\xd9\x20" + _decoded_header(real).auth.encode(),
-                       b"\xbf" + _decoded_header(real).auth[:31].encode(), 1)
+    auth = _decoded_header(real).auth
+    cut = real.replace(b"\xd9\x80" + auth.encode(), b"\xd9\x7f" + auth[:127].encode(), 1)
     assert screen.check(cut, frame, "frame", replays) is None
     assert len(rejected) == 1 and "header.auth" in rejected[0]
 
@@ -123,15 +126,57 @@ def test_one_index_is_answered_once_and_the_memory_of_indices_is_bounded() -> No
     assert len(replays._streams) <= MAX_STREAMS
 
 
-def test_a_keys_file_must_be_the_users_and_closed_to_others(tmp_path: Path) -> None:
+def test_a_restarted_service_refuses_what_its_run_had_reached() -> None:
+    """The frames a dead fitter missed, replayed unchanged to the new one, are refused."""
+    stats, rejected = ServiceStats(), []
+    screen = _screen(stats, rejected, floors={("source", "frame"): 9, ("fitter", "fit"): 4})
+    replays = Replays()
+    old, new = _signed("source", _frame(9)), _signed("source", _frame(10))
+    assert screen.check(old, "aamtrack/cam0/frame", "frame", replays) is None
+    assert screen.check(_signed("fitter", _fit(4)), "aamtrack/cam0/fit", "fit", replays) is None
+    assert screen.check(new, "aamtrack/cam0/frame", "frame", replays) is not None  # control
+    assert screen.check(_signed("fitter", _fit(5)), "aamtrack/cam0/fit", "fit",
+                        replays) is not None
+    assert stats.ignored_by == {"before the restart": 2}
+    # A frame sent while no process listened (after the floors, before it subscribed).
+    early = _signed("source", _frame(11))
+    screen.restarted = True
+    screen.subscribing()
+    assert screen.check(early, "aamtrack/cam0/frame", "frame", replays) is None
+    assert screen.check(_signed("source", _frame(12)), "aamtrack/cam0/frame", "frame",
+                        replays) is not None
+    assert stats.ignored_by == {"before the restart": 3}
+
+
+def test_a_keys_file_must_be_the_users_closed_to_others_with_keys_of_their_length(
+    tmp_path: Path,
+) -> None:
     path = tmp_path / "run.keys"
     write_keys_file(path, RING)
-    assert read_keys_file(path, "pose") == Keyring(RING.keys, "pose")
+    assert read_keys_file(path) == RING
+    assert read_keys_file(path, "pose") == RING.for_service("pose")
+    assert read_keys_file(path, "reader") == RING.public_only()
     with pytest.raises(FileExistsError):
         write_keys_file(path, RING)
     path.chmod(0o640)
-    with pytest.raises(ValueError, match="others may read it"):
+    with pytest.raises(ValueError, match=f"keys file {path}: mode 640: others may read"):
         read_keys_file(path)
+    path.chmod(0o600)
+    os.chown(path, 65534, -1)  # another user's (the test runs as root, who may give it)
+    with pytest.raises(ValueError, match=f"keys file {path}: owned by uid 65534"):
+        read_keys_file(path)
+    link = tmp_path / "link.keys"
+    link.symlink_to(path)
+    with pytest.raises(ValueError, match=f"keys file {link}: a symbolic link"):
+        read_keys_file(link)
+    short = tmp_path / "short.keys"
+    data = json.loads(RING.to_bytes())
+    data["secret"]["pose"] = data["secret"]["pose"][:60]
+    fd = os.open(short, os.O_WRONLY | os.O_CREAT, 0o600)
+    os.write(fd, json.dumps(data).encode())
+    os.close(fd)
+    with pytest.raises(ValueError, match=f"keys file {short}: .*pose.* is not 32 bytes"):
+        read_keys_file(short)
 
 
 PROBE = '''
@@ -140,30 +185,24 @@ from services.bus import trust
 from services.bus.session import Service
 from services.bus.connection import BusOptions
 
-def pipe_open(fd):
-    import stat
-    try:
-        return stat.S_ISFIFO(os.fstat(fd).st_mode)
-    except OSError:
-        return False
-
 def main(argv):
     import ctypes
     ring = Service("pose", BusOptions("cam0")).keyring
     dumpable = ctypes.CDLL(None).prctl(3, 0, 0, 0, 0)  # PR_GET_DUMPABLE
-    open(argv[0], "w").write(json.dumps({"signer": ring.signer, "keys": sorted(ring.keys),
-                                         "dumpable": dumpable,
-                                         "pipe_open": pipe_open(int(sys.argv[3]))}))
+    fds = sorted(os.listdir("/proc/self/fd"))
+    open(argv[0], "w").write(json.dumps({"signer": ring.signer, "keys": sorted(ring.public),
+                                         "secrets": sorted(ring.secrets),
+                                         "dumpable": dumpable, "fds": fds}))
     import time; time.sleep(30)
 '''
 
 
-def test_keys_reach_a_service_through_a_pipe_never_its_environment_or_command_line(
+def test_keys_reach_a_service_once_it_is_non_dumpable_never_its_environment_or_command_line(
     tmp_path: Path,
 ) -> None:
     (tmp_path / "key_probe.py").write_text(PROBE)
     out = tmp_path / "probe.json"
-    ring = RING.for_service("pose", ["fitter"])
+    ring = RING.for_service("pose")
     sup = Supervisor([ServiceSpec("pose", "key_probe", [str(out)], restart=False,
                                   keyring=ring)],
                      env={"PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path])})
@@ -173,20 +212,19 @@ def test_keys_reach_a_service_through_a_pipe_never_its_environment_or_command_li
         while not out.exists() or not out.read_text():
             assert time.monotonic() < deadline and sup.alive("pose"), "the probe never wrote"
             time.sleep(0.05)
-        import json
-
         seen = json.loads(out.read_text())
         pid = sup.pid("pose")
         environ = Path(f"/proc/{pid}/environ").read_bytes()
         cmdline = Path(f"/proc/{pid}/cmdline").read_bytes()
     finally:
         sup.stop()
-    assert seen["signer"] == "pose" and seen["keys"] == ["fitter", "pose"]
+    assert seen["signer"] == "pose" and seen["keys"] == ["fitter", "pose", "source"]
+    assert seen["secrets"] == ["pose"]  # its own private key, no other
     assert seen["dumpable"] == 0  # same-user processes cannot read its memory or files
-    for key in ring.keys.values():  # read as root here: no user sees more
+    for key in RING.secrets.values():  # read as root here: no user sees more
         assert key.hex().encode() not in environ and key.hex().encode() not in cmdline
         assert key not in environ and key not in cmdline
-    assert seen["pipe_open"] is False  # closed once read: nobody can read it later
+    assert len(seen["fds"]) <= 4  # stdin, out, err, the listing's own: no key channel left
 
 
 def test_a_token_without_a_signed_status_does_not_make_a_service_alive(
@@ -194,13 +232,13 @@ def test_a_token_without_a_signed_status_does_not_make_a_service_alive(
 ) -> None:
     ring = Keyring.generate(["sink", "peer"])
     with Service("peer", bus_pair[0], handle_signals=False,
-                 keyring=ring.for_service("peer", ["sink"])) as peer:
+                 keyring=ring.for_service("peer")) as peer:
         peer.watch_presence()
         with Service("sink", bus_pair[1], status_period=0.1, handle_signals=False) as forger:
             forger.ready()  # a liveliness token and statuses, unsigned
             assert peer.wait_for_alive(["sink"], 1.5) == ["sink"]
         with Service("sink", bus_pair[1], handle_signals=False,
-                     keyring=ring.for_service("sink", [])) as real:
+                     keyring=ring.for_service("sink")) as real:
             real.ready()
             assert peer.wait_for_alive(["sink"], 30) == []
     assert peer.stats.ignored_by["unsigned"] >= 1

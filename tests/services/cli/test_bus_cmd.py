@@ -60,7 +60,7 @@ def test_echo_prints_one_line_per_message(
     peer: Service, bus_pair: tuple[BusOptions, BusOptions]
 ) -> None:
     proc = start("echo", f"aamtrack/{peer.stream}/**", *options_argv(bus_pair[1]), "--count", "4",
-                 "--timeout", "30")
+                 "--timeout", "30", "--unverified")  # the peer has no keys
     peer.ready()
     publish_until_done(peer, proc, "echo")
     out, err = proc.communicate(timeout=10)
@@ -68,7 +68,8 @@ def test_echo_prints_one_line_per_message(
     lines = out.splitlines()
     assert len(lines) == 4
     assert {line.split()[0] for line in lines} <= {"frame", "eos", "rejected", "status"}
-    assert any(line.startswith("frame") and "8x8 raw" in line for line in lines)
+    assert any(line.startswith("frame") and "8x8 raw" in line for line in lines), (lines, err)
+    assert "UNVERIFIED" in err and "malformed" in err  # said, and the garbage counted
 
 
 def test_record_writes_results_but_not_frames(
@@ -78,14 +79,14 @@ def test_record_writes_results_but_not_frames(
     # No fit ever comes for the end of stream's last frame: the recording ends after
     # --drain-max seconds.
     proc = start("record", "--out", str(out), *options_argv(bus_pair[1]), "--until-eos",
-                 "--drain-max", "1", "--timeout", "30")
+                 "--drain-max", "1", "--timeout", "30", "--unverified")
     peer.ready()
     publish_until_done(peer, proc, "record")
     _, err = proc.communicate(timeout=10)
     assert proc.returncode == 0, err
     kinds = [m.KIND for m in load_messages(out)]
     assert "eos" in kinds and "frame" not in kinds
-    assert "recorded" in err
+    assert "recorded" in err and "UNVERIFIED" in err
 
 
 def test_echo_and_record_give_up_without_a_stack(tmp_path: Path) -> None:
@@ -100,3 +101,16 @@ def test_echo_and_record_give_up_without_a_stack(tmp_path: Path) -> None:
         assert f"no aamtrack stack answered at {nowhere} within 1 s" in err
         assert "Traceback" not in err
         assert time.monotonic() - started < 30
+
+
+def test_echo_and_record_refuse_a_stack_whose_run_s_keys_they_cannot_have(
+    peer: Service, bus_pair: tuple[BusOptions, BusOptions], tmp_path: Path
+) -> None:
+    """A stack without a launcher (the peer has no keys): without --unverified, nothing is
+    printed or recorded, and the command says why."""
+    for args in (["echo", f"aamtrack/{peer.stream}/**"],
+                 ["record", "--out", str(tmp_path / "r.rec")]):
+        proc = start(*args, *options_argv(bus_pair[1]), "--timeout", "2")
+        out, err = proc.communicate(timeout=60)
+        assert proc.returncode == 1 and out == "", err
+        assert "no run's keys on stream" in err and "Traceback" not in err

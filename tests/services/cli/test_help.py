@@ -66,11 +66,13 @@ def test_the_command_word_is_found_after_global_options() -> None:
         build_parser("trakc").parse_args(["trakc"])  # a typo: argparse names the choices
 
 
-def _interrupt_when(argv: list[str], marker: str) -> tuple[int, list[str]]:
-    """Run ``python -X importtime -m services ARGV``, send SIGINT once the import of module
-    ``marker`` is timed; the exit code and the standard error lines that are not import
-    times."""
-    child = subprocess.Popen([sys.executable, "-X", "importtime", "-m", "services", *argv],
+def _interrupt_when(argv: list[str], marker: str, script: list[str] | None = None
+                    ) -> tuple[int, list[str]]:
+    """Run ``python -X importtime -m services ARGV`` (or the ``script`` given), send SIGINT
+    once the import of module ``marker`` is timed; the exit code and the standard error
+    lines that are not import times."""
+    child = subprocess.Popen([sys.executable, "-X", "importtime",
+                              *(script or ["-m", "services"]), *argv],
                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                              env=_env(), cwd=REPO_ROOT,
                              preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
@@ -91,3 +93,15 @@ def test_ctrl_c_while_importing_ends_with_one_line(single_face: Path, tmp_path: 
     code, lines = _interrupt_when(["track", str(single_face), "--csv", str(tmp_path / "o.csv")],
                                   "numpy._core.multiarray")
     assert (code, lines) == (130, ["aamtrack track: interrupted"])
+
+
+def test_ctrl_c_while_the_console_command_imports_its_first_module_ends_with_one_line(
+    tmp_path: Path,
+) -> None:
+    """The ``aamtrack`` console script, interrupted as it makes itself non-dumpable (its
+    first import, before ``main`` and its handling exist): exit 130, one line."""
+    script = tmp_path / "aamtrack"  # what pip writes for [project.scripts]
+    script.write_text("import sys\nfrom services.cli import main\nsys.exit(main())\n")
+    code, lines = _interrupt_when(["run", "--help"], "ctypes", [str(script)])
+    # "aamtrack: interrupted" while it imports, "aamtrack run: ..." once main() runs.
+    assert code == 130 and len(lines) == 1 and lines[0].endswith(": interrupted"), lines

@@ -113,7 +113,8 @@ def bus() -> Iterator[Bus]:
 
 
 def _start(bus: Bus, *args: str) -> multiprocessing.Process:
-    argv = ["--stream", STREAM, "--mode", "peer", "--connect", bus.endpoint, *args]
+    argv = ["--stream", STREAM, "--mode", "peer", "--connect", bus.endpoint, "--unverified",
+            *args]  # the test publishes without keys
     process = multiprocessing.get_context("spawn").Process(target=_run_service, args=(argv,))
     process.start()
     return process
@@ -300,6 +301,15 @@ def test_service_keeps_serving_after_the_end_of_stream_until_stopped(
     verify(rrd)
     assert read(rrd).frames("/" + ent.LANDMARKS, "Points2D:positions") == [0, 1]
     assert bus.final_status().state == "stopped"
+
+
+def test_service_on_its_own_refuses_a_stream_whose_run_s_keys_it_cannot_have(bus, tmp_path):
+    """Started beside a bus with no launcher to vouch for the run's keys, and without
+    --unverified: it logs nothing and says why (exit 2)."""
+    done = _service_command("--stream", STREAM, "--connect", bus.endpoint, "--rrd",
+                            str(tmp_path / "x.rrd"))
+    assert done.returncode == 2, done.stderr
+    assert "no run's keys on stream" in done.stderr and "Traceback" not in done.stderr
 
 
 def test_service_reports_an_unwritable_rrd_path(tmp_path):

@@ -279,7 +279,7 @@ def test_killing_a_service_leaves_the_others_running_and_it_comes_back(
     assert any("pose died" in e for e in summary["events"]), summary["events"]
     assert summary["services"]["pose"]["restarts"] == 1
     poses = stack.monitor.indices["pose"]
-    assert max(poses) > killed_at + 30, "no poses after the restart"
+    assert poses.highest > killed_at + 30, "no poses after the restart"
     assert_accounted(summary)
     # The fits that came while no pose service ran got no pose: the run says so and fails.
     assert summary["unanswered"]["pose"] > 0 and summary["unanswered"]["fit"] == 0
@@ -405,7 +405,7 @@ def test_services_of_another_run_on_the_endpoint_are_ignored_not_a_reason_to_sto
     # token, statuses and poses change nothing (the source waits for the run's own pose).
     opts = stack_options(single_face, ar=False, endpoint=endpoint)
     with Service("pose", stray, status_period=0.1, handle_signals=False,
-                 keyring=Keyring.generate(["pose"]).for_service("pose", [])) as other:
+                 keyring=Keyring.generate(["pose"]).for_service("pose")) as other:
         other.ready()
         with Stack(opts) as stack:
             outcome = stack.wait()

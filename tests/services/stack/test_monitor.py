@@ -52,19 +52,19 @@ def _status(dropped: int, restarts: int, run: str = RUN) -> Status:
 
 def test_forged_statuses_and_fits_cannot_talk_a_lossy_run_into_success() -> None:
     svc = Service("launcher", BusOptions("cam0", run_id=RUN),
-                  keyring=Keyring(RING.keys, "launcher"))
+                  keyring=RING.for_service("launcher"))
     monitor = StackMonitor(svc, None, False)
 
     def feed(key: str, payload: bytes) -> None:
         monitor._on_sample(_Sample(f"aamtrack/cam0/{key}", _Payload(payload)))
 
-    fitter, source = Keyring(RING.keys, "fitter"), Keyring(RING.keys, "source")
+    fitter, source = RING.for_service("fitter"), RING.for_service("source")
     for k in range(5):
         feed("fit", fitter.encode(_fit(k)))
     feed("status/fitter", fitter.encode(_status(dropped=0, restarts=0)))
     eos = EndOfStream(Header.now("cam0", 9, "source", run_id=RUN), 10, "end_of_file")
     feed("eos", source.encode(eos))
-    other = Keyring(Keyring.generate(["fitter"]).keys, "fitter")
+    other = Keyring.generate(["fitter"]).for_service("fitter")
     for k in range(5, 10):  # the forger's "no face" fits and counts of the issue
         feed("fit", encode(_fit(k, failed=True)))
         feed("fit", other.encode(_fit(k, failed=True)))

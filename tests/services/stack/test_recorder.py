@@ -109,3 +109,31 @@ def test_messages_after_close_are_left_out_and_counted(tmp_path: Path) -> None:
     writer.write(encode(messages()[1]))
     assert writer.late == 1
     assert [type(m).__name__ for m in load_messages(path)] == ["Fit"]
+
+
+def test_a_recording_keeps_only_what_its_run_s_services_signed(tmp_path: Path) -> None:
+    """Read with the run's public keys it holds: a forged, an unsigned, another key's and a
+    replayed message are left out and counted; a recording of another launcher is refused
+    under --trust."""
+    from proto.auth import Keyring, keys_document
+
+    ring = Keyring.generate(["fitter", "source", "launcher"])
+    fit, eos = messages()
+    fitter, source = ring.for_service("fitter"), ring.for_service("source")
+    forger = Keyring.generate(["fitter"]).for_service("fitter")
+    path = tmp_path / "run.rec"
+    with RecordWriter(path, keys_document(ring, "cam0", "")) as writer:
+        for payload in (fitter.encode(fit), encode(fit), forger.encode(fit),
+                        fitter.encode(fit), source.encode(eos)):
+            writer.write(payload)
+    recording = read_recording(path)
+    assert [m.KIND for m in recording.messages] == ["fit", "eos"]
+    assert recording.ignored == {"unsigned": 1, "bad signature": 1, "replayed": 1}
+    assert recording.verified.endswith(ring.fingerprint)
+    assert read_recording(path, trust=ring.fingerprint).messages == recording.messages
+    with pytest.raises(RecordingError, match="is not the trusted"):
+        read_recording(path, trust=Keyring.generate(["launcher"]).fingerprint)
+    write(tmp_path / "plain.rec")  # a run without keys
+    unverified = read_recording(tmp_path / "plain.rec")
+    assert len(unverified.messages) == 2 and unverified.run_keys is None
+    assert unverified.verified.startswith("unverified")
