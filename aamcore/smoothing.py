@@ -69,11 +69,12 @@ class OneEuroFilter:
         """Forget the past: the next sample passes unchanged."""
         self._x = self._dx = None
 
-    def __call__(self, x: np.ndarray, t: float, speed_scale: float = 1.0) -> np.ndarray:
+    def __call__(self, x: np.ndarray, t: float, speed_scale: float | np.ndarray = 1.0
+                 ) -> np.ndarray:
         """The filtered value of sample ``x`` at time ``t`` (seconds).
 
         ``speed_scale`` divides the speed before it raises the cut-off (the
-        face size, for landmarks in pixels).
+        face size, for landmarks in pixels; an array: each value's own).
         """
         x = np.asarray(x, dtype=np.float64)
         dt = t - self._t
