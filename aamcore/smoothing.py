@@ -28,6 +28,8 @@ MAX_GAP_S = 0.5
 
 def _alpha(cutoff_hz: np.ndarray | float, dt: float) -> np.ndarray | float:
     """Smoothing factor of an exponential filter with this cut-off at step ``dt`` (eq. 2)."""
+    if isinstance(cutoff_hz, float):
+        return 1.0 / (1.0 + 1.0 / (2.0 * math.pi * cutoff_hz * dt))
     tau = 1.0 / (2.0 * math.pi * np.asarray(cutoff_hz))
     return 1.0 / (1.0 + tau / dt)
 

@@ -11,7 +11,7 @@ stack give the same numbers.
 
 from __future__ import annotations
 
-import dataclasses
+import copy
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -88,7 +88,10 @@ class HeadPose:
 
     def with_rotation(self, R: np.ndarray, T: np.ndarray) -> HeadPose:
         """The same pose with rotation ``R`` (3, 3) and translation ``T`` (3,) (smoothed)."""
-        return HeadPose(dataclasses.replace(self.estimate, R=R, T=T), self.camera)
+        estimate = copy.copy(self.estimate)  # dataclasses.replace, without its overhead
+        object.__setattr__(estimate, "R", R)
+        object.__setattr__(estimate, "T", T)
+        return HeadPose(estimate, self.camera)
 
     @property
     def reason(self) -> str:

@@ -165,6 +165,8 @@ class ContourPose:
         self.outside_margin = float(outside_margin)
         self.limits = limits or ReliabilityLimits()
         self._posit = Posit(self.X[self.inner], refine_iterations=0)
+        self._every = np.ones(68, bool)
+        self._every.setflags(write=False)
         self._rows = ContourRows(self.inner, self.X[self.inner], None if self.normals is None
                                  else self.normals[self.inner], self.outline, *self.ramp_deg)
 
@@ -184,20 +186,17 @@ class ContourPose:
         if pts.shape != (68, 2):
             raise PoseError(f"not 68 landmarks: need the iBUG-68 points as a (68, 2) array, "
                             f"got shape {pts.shape}")
-        finite = np.isfinite(pts).all(axis=1)
-        every = bool(finite.all())
+        every = bool(np.isfinite(pts).all())
+        finite = self._every if every else np.isfinite(pts).all(axis=1)
         used = pts[self.inner] if every else pts[self.inner][finite[self.inner]]
         if len(used) < MIN_POINTS:
             raise PoseError(f"too few landmarks: only {len(used)} finite inner "
                             f"landmarks, need {MIN_POINTS}")
         centred = used - used.sum(axis=0) / len(used)
-        size = float(np.sqrt(np.einsum("nd,nd->", centred, centred) / len(used)))
+        size = math.sqrt(float(np.einsum("nd,nd->", centred, centred)) / len(used))
         if not size > 0:
             raise PoseError("degenerate landmarks: the inner landmarks all coincide")
-        inside = finite
-        if cam.width > 0 and cam.height > 0:
-            m = self.outside_margin * size
-            inside = ((pts >= -m) & (pts <= (cam.width - 1 + m, cam.height - 1 + m))).all(1)
+        inside = self._inside(pts, finite, cam, self.outside_margin * size)
         n_inside = int(inside[self.inner].sum())
         if n_inside < MIN_POINTS:
             raise PoseError(f"mostly out of the frame: only {n_inside} "
@@ -205,11 +204,22 @@ class ContourPose:
         if every:
             xy = cam.normalize(pts)
         else:
-            inside &= finite
             xy = np.full((68, 2), np.nan)
             xy[finite] = cam.normalize(pts[finite])
-        return _Seen(xy, inside, np.array(cam.focal, dtype=np.float64), size,
-                     float(1.0 - inside.mean()))
+        outside = 0.0 if inside is self._every else float(1.0 - inside.mean())
+        return _Seen(xy, inside, np.array(cam.focal, dtype=np.float64), size, outside)
+
+    def _inside(self, pts: np.ndarray, finite: np.ndarray, cam: CameraIntrinsics, margin: float
+                ) -> np.ndarray:
+        """(68,) bool: the finite landmarks within ``margin`` pixels of the image."""
+        if cam.width <= 0 or cam.height <= 0:
+            return finite
+        high = (cam.width - 1 + margin, cam.height - 1 + margin)
+        if finite is self._every:
+            (x0, y0), (x1, y1) = pts.min(axis=0).tolist(), pts.max(axis=0).tolist()
+            if x0 >= -margin and y0 >= -margin and x1 <= high[0] and y1 <= high[1]:
+                return self._every
+        return finite & ((pts >= -margin) & (pts <= high)).all(axis=1)
 
     # -- estimate ------------------------------------------------------------------------
     def estimate(self, landmarks: np.ndarray, camera: CameraIntrinsics | np.ndarray,
@@ -325,8 +335,9 @@ class ContourPose:
         used = w_base > 0
         wsum = float(w.sum())
         rms = float(np.sqrt((w @ (r * r)) / wsum)) if wsum > 0 else float("inf")
-        inliers = float(np.mean(robust_w[used] >= 1.0)) if used.any() else 0.0
-        angle_sd, dist_sd = _predicted_sd(J, w, r, float(used.sum()), T)
+        n_used = int(np.count_nonzero(used))
+        inliers = np.count_nonzero(robust_w[used] >= 1.0) / n_used if n_used else 0.0
+        angle_sd, dist_sd = _predicted_sd(J, w, r, float(n_used), T)
         n = len(self.inner)
         weights = np.zeros(68)
         weights[self.inner] = w_base[:n] * np.minimum(robust_w[:n], robust_w[n:2 * n])
@@ -355,11 +366,11 @@ def _predicted_sd(J: np.ndarray, w: np.ndarray, r: np.ndarray, n_used: float, T:
     residual variance; infinite when the pose is not determined.
     """
     sigma2 = (w @ (r * r)) / max(n_used - 6.0, 1.0)
-    ok, cov = cv2.invert(J.T @ (J * w[:, None]), flags=cv2.DECOMP_CHOLESKY)
+    ok, cov = cv2.invert((J.T * w) @ J, flags=cv2.DECOMP_CHOLESKY)
     if not ok:
         return np.full(3, np.inf), float("inf")
-    cov *= sigma2
     # The rotation vector's camera axes x, y, z are pitch, yaw and roll.
-    sd_rot = np.degrees(np.sqrt(np.maximum(cov.diagonal()[[2, 0, 1]], 0.0)))
+    pitch, yaw, roll = (math.degrees(math.sqrt(max(v * sigma2, 0.0)))
+                        for v in cov.diagonal()[:3].tolist())
     u = T / math.sqrt(T @ T)
-    return sd_rot, math.sqrt(max(float(u @ cov[3:, 3:] @ u), 0.0))
+    return np.array([roll, pitch, yaw]), math.sqrt(max(float(u @ cov[3:, 3:] @ u) * sigma2, 0.0))
