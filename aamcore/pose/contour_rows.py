@@ -27,9 +27,6 @@ import numpy as np
 
 from aamcore.pose.contour import OutlineModel
 
-NEXT = [1, 2, 0]
-AFTER = [2, 0, 1]
-
 
 @dataclass(frozen=True, eq=False)
 class RowFrame:
@@ -143,48 +140,52 @@ class ContourRows:
                         np.empty((6, len(self._row_point))))
 
     def at(self, R: np.ndarray, T: np.ndarray, frame: RowFrame
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
-        """Residuals (m,) in pixels, Jacobian (m, 6), base weights (m,) and the outline
-        landmarks' model points (L, 3) at the pose ``R`` (3, 3), ``T`` (3,); None when a
-        point in use is at or behind the camera. The Jacobian is a view of ``frame.J``,
-        overwritten at the next pose."""
-        n, L = self.n, self.L
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Residuals (m,) in pixels, the Jacobian transposed (6, m) and base weights (m,) at
+        the pose ``R`` (3, 3), ``T`` (3,); None when a point in use is at or behind the
+        camera. The Jacobian is ``frame.J``, overwritten at the next pose."""
+        n, L, stop = self.n, self.L, self._candidates.stop
         M = np.empty((3, 4))
         M[:, :3], M[:, 3] = R, T
         P = M @ self.points
-        z = P[2, :self._candidates.stop]
-        if z.min() > 1e-6:
-            uv = P[:2, :self._candidates.stop] / z
+        z = P[2, :stop]
+        near = z.min() <= 1e-6
+        if not near:
+            uv = P[:2, :stop] / z
         elif z[:n].min() <= 0.0:
             return None
         else:  # a candidate at or behind the camera: it can only lose
-            uv = P[:2, :self._candidates.stop] / np.maximum(z, 1e-6)
+            uv = P[:2, :stop] / np.maximum(z, 1e-6)
         w_in = frame.inner_weight
         if self.visibility:
-            w_in = w_in * self._visibility(P[:, :n], P[:, self._candidates.stop:])
+            w_in = w_in * self._visibility(P[:, :n], P[:, stop:])
         a, point = frame.direction, frame.point
         if L:
             point[2 * n:] = self._silhouette(uv, a[:, 2 * n:], frame.fxy)
         Pr, uvr = P[:, point], uv[:, point]
-        if L and z.min() <= 1e-6 and Pr[2, 2 * n:].min() <= 0.0:
+        if near and Pr[2].min() <= 0.0:
             return None
         J = frame.J
         g = J[3:]
         np.multiply(a, 1.0 / Pr[2], out=g[:2])
-        np.einsum("dm,dm->m", g[:2], uvr, out=g[2])
-        np.negative(g[2], out=g[2])
-        Q = Pr - T[:, None]
+        g[2] = -(g[0] * uvr[0] + g[1] * uvr[1])
+        Q = Pr - T[:, None]  # the points turned about the model's origin
         J[0] = Q[1] * g[2] - Q[2] * g[1]
         J[1] = Q[2] * g[0] - Q[0] * g[2]
         J[2] = Q[0] * g[1] - Q[1] * g[0]
-        r = np.einsum("dm,dm->m", uvr - frame.obs, a)
-        w = np.concatenate([w_in, w_in, frame.outline_weight])
-        return r, J.T, w, self.points[:3, point[2 * n:]].T
+        d = uvr - frame.obs
+        r = d[0] * a[0] + d[1] * a[1]
+        return r, J, np.concatenate([w_in, w_in, frame.outline_weight])
+
+    def outline_points(self, frame: RowFrame) -> np.ndarray:
+        """The model points (L, 3) the outline landmarks were matched to at the last pose
+        :meth:`at` was given with ``frame``."""
+        return self.points[:3, frame.point[2 * self.n:]].T
 
     def _visibility(self, P: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """The inner points' visibility weights (n,) from their camera points ``P`` (3, n)
         and their turned, scaled inward normals (3, n)."""
-        ramp = np.einsum("dn,dn->n", normals, P) / np.sqrt(np.einsum("dn,dn->n", P, P))
+        ramp = np.add.reduce(normals * P) / np.sqrt(np.add.reduce(P * P))
         ramp -= self._ramp_start
         return np.minimum(np.maximum(ramp, 0.0), 1.0)
 
@@ -194,7 +195,7 @@ class ContourRows:
         n, L = self.n, self.L
         e = uv[:, n + L:n + 2 * L] - uv[:, n:n + L]
         e *= fxy
-        e /= np.maximum(np.sqrt(np.einsum("dl,dl->l", e, e)), 1e-12)
+        e /= np.maximum(np.sqrt(e[0] * e[0] + e[1] * e[1]), 1e-12)
         np.multiply(e, fxy, out=a)
         reach = np.einsum("dlw,dl->lw", uv[:, self._candidates].reshape(2, L, self.width), a)
         return self._first_candidate + reach.argmax(axis=1)

@@ -49,6 +49,8 @@ INNER_RIGID = tuple(range(27, 48)) + (48, 54)
 with expression and their markup varies most between annotators and trackers."""
 MIN_POINTS = 6
 BEHIND = "no valid pose: part of the head would be behind the camera"
+DAMPING = 1e-9 * np.eye(6)
+"""Added to the normal matrix of every Gauss-Newton step."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -121,9 +123,11 @@ class ContourPose:
         Gauss-Newton steps at most.
     step_deg, step_mm : float
         The pose has converged once a step turns it by less than ``step_deg`` about every
-        axis and moves it by less than ``step_mm``. The reweighting and the sliding outline
-        make the last steps shrink slowly (about threefold a step); past 0.02 degree they
-        change no figure of ``bench/bench_pose_yaw.py``.
+        axis and moves it by less than ``step_mm`` (0.1 degree a step is also what "settled"
+        means after ``max_iterations``). The reweighting and the sliding outline make the
+        steps shrink about fivefold each, so what is left is a few hundredths of a degree:
+        on ``bench/bench_pose_yaw.py`` no error sd moved by more than 0.01 against steps
+        to 0.006 degree, and tracked faces take 2.3 steps a frame instead of 5.6.
     outside_margin : float
         A landmark is outside when beyond the image border by more than this
         fraction of the face size.
@@ -141,7 +145,7 @@ class ContourPose:
         outline: OutlineModel | None | str = "default", outline_weight: float = 0.5,
         visibility: bool = True, visible_until_deg: float = 65.0,
         hidden_from_deg: float = 90.0, huber: float | None = 2.0, scale_floor: float = 0.01,
-        max_iterations: int = 8, step_deg: float = 0.02, step_mm: float = 0.1,
+        max_iterations: int = 8, step_deg: float = 0.1, step_mm: float = 0.5,
         outside_margin: float = 0.05,
         limits: ReliabilityLimits | None = None,
     ) -> None:
@@ -192,7 +196,7 @@ class ContourPose:
         if len(used) < MIN_POINTS:
             raise PoseError(f"too few landmarks: only {len(used)} finite inner "
                             f"landmarks, need {MIN_POINTS}")
-        centred = used - used.sum(axis=0) / len(used)
+        centred = used - np.add.reduce(used) / len(used)
         size = math.sqrt(float(np.einsum("nd,nd->", centred, centred)) / len(used))
         if not size > 0:
             raise PoseError("degenerate landmarks: the inner landmarks all coincide")
@@ -299,45 +303,45 @@ class ContourPose:
             rows = self._rows.at(R, T, frame)
             if rows is None:
                 return self._behind(R, T, seen, iterations)
-            r, J, w_base, outline_pts = rows
-            Jw = J * (w_base * self._robust(r, w_base, floor))[:, None]
-            H = J.T @ Jw
-            H.flat[::7] += 1e-9
-            solved, step = cv2.solve(H, -(Jw.T @ r), flags=cv2.DECOMP_CHOLESKY)
+            r, Jt, w_base = rows
+            Jw = Jt * (w_base * self._robust(r, w_base, floor))
+            H = Jw @ Jt.T
+            H += DAMPING
+            solved, step = cv2.solve(H, Jw @ -r, flags=cv2.DECOMP_CHOLESKY)
             if not solved:
                 break
-            step = step.ravel()
             R = cv2.Rodrigues(step[:3])[0] @ R
-            T = T + step[3:]
-            last_step = float(np.abs(step[:3]).max())
-            if last_step < tol_rad and np.abs(step[3:]).max() < tol_mm:
-                return self._result(R, T, seen, iterations, True,
-                                    (r + J @ step, J, w_base, outline_pts))
+            T = T + step[3:, 0]
+            w0, w1, w2, t0, t1, t2 = step[:, 0].tolist()
+            last_step = max(abs(w0), abs(w1), abs(w2))
+            if last_step < tol_rad and max(abs(t0), abs(t1), abs(t2)) < tol_mm:
+                return self._result(R, T, seen, frame, iterations, True,
+                                    (r + step[:, 0] @ Jt, Jt, w_base))
         # Reweighting can make the last steps dither: a pose still moving by less
         # than 0.1 degree per step has settled.
         rows = self._rows.at(R, T, frame)
         if rows is None:
             return self._behind(R, T, seen, iterations)
-        return self._result(R, T, seen, iterations, last_step < np.radians(0.1), rows)
+        return self._result(R, T, seen, frame, iterations, last_step < np.radians(0.1), rows)
 
     def _behind(self, R: np.ndarray, T: np.ndarray, seen: _Seen, iterations: int
                 ) -> ContourPoseEstimate:
         return ContourPoseEstimate(R, T, iterations, False, False, BEHIND, float("inf"),
                                    outside_fraction=seen.outside_fraction)
 
-    def _result(self, R: np.ndarray, T: np.ndarray, seen: _Seen, iterations: int,
-                converged: bool, rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    def _result(self, R: np.ndarray, T: np.ndarray, seen: _Seen, frame: RowFrame,
+                iterations: int, converged: bool, rows: tuple[np.ndarray, np.ndarray, np.ndarray]
                 ) -> ContourPoseEstimate:
         """The estimate at the final pose from its rows: weights, predicted sd, reliability."""
-        r, J, w_base, outline_pts = rows
+        r, Jt, w_base = rows
         robust_w = self._robust(r, w_base, self.scale_floor * seen.size)
         w = w_base * robust_w
         used = w_base > 0
         wsum = float(w.sum())
-        rms = float(np.sqrt((w @ (r * r)) / wsum)) if wsum > 0 else float("inf")
+        rms = math.sqrt(float(w @ (r * r)) / wsum) if wsum > 0 else float("inf")
         n_used = int(np.count_nonzero(used))
         inliers = np.count_nonzero(robust_w[used] >= 1.0) / n_used if n_used else 0.0
-        angle_sd, dist_sd = _predicted_sd(J, w, r, float(n_used), T)
+        angle_sd, dist_sd = _predicted_sd(Jt, w, r, float(n_used), T)
         n = len(self.inner)
         weights = np.zeros(68)
         weights[self.inner] = w_base[:n] * np.minimum(robust_w[:n], robust_w[n:2 * n])
@@ -346,7 +350,7 @@ class ContourPose:
         reason = self.limits.problem(R, T, quality)
         return ContourPoseEstimate(
             R, T, iterations, converged, reason == "", reason or "ok", rms, angle_sd, dist_sd,
-            weights, outline_pts, inliers, seen.outside_fraction)
+            weights, self._rows.outline_points(frame), inliers, seen.outside_fraction)
 
 
 def _median(values: np.ndarray) -> float:
@@ -358,15 +362,16 @@ def _median(values: np.ndarray) -> float:
     return 0.5 * float(low + high)
 
 
-def _predicted_sd(J: np.ndarray, w: np.ndarray, r: np.ndarray, n_used: float, T: np.ndarray
+def _predicted_sd(Jt: np.ndarray, w: np.ndarray, r: np.ndarray, n_used: float, T: np.ndarray
                   ) -> tuple[np.ndarray, float]:
     """Predicted sd of roll, pitch, yaw (3,) in degrees and of the distance (mm).
 
-    From the weighted Gauss-Newton normal matrix ``J^T W J`` (rows, 6) and the
-    residual variance; infinite when the pose is not determined.
+    From the weighted Gauss-Newton normal matrix ``J^T W J`` (``Jt`` (6, rows) the
+    Jacobian transposed) and the residual variance; infinite when the pose is not
+    determined.
     """
     sigma2 = (w @ (r * r)) / max(n_used - 6.0, 1.0)
-    ok, cov = cv2.invert((J.T * w) @ J, flags=cv2.DECOMP_CHOLESKY)
+    ok, cov = cv2.invert((Jt * w) @ Jt.T, flags=cv2.DECOMP_CHOLESKY)
     if not ok:
         return np.full(3, np.inf), float("inf")
     # The rotation vector's camera axes x, y, z are pitch, yaw and roll.

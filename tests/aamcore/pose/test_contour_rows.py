@@ -50,6 +50,8 @@ def test_rows_equal_the_plain_formulation(contour: ContourPose, rpy: tuple) -> N
     R1 = rotation_from_rpy(3.0, -2.0, 4.0) @ R
     got = rows.at(R1, T + 5.0, frame)
     assert got is not None
+    r, Jt, w = got
+    got = (r, Jt.T, w, rows.outline_points(frame))
     for a, b in zip(got, plain_rows(contour, R1, T + 5.0, xy, inside), strict=True):
         assert a.shape == b.shape and np.allclose(a, b, rtol=1e-10, atol=1e-9)
 
@@ -60,7 +62,7 @@ def test_missing_landmarks_give_rows_without_weight(contour: ContourPose) -> Non
     xy[[3, 30]] = np.nan
     inside = np.isfinite(xy).all(axis=1)
     rows = ContourRows(contour.inner, contour.X[contour.inner], None, contour.outline)
-    r, J, w, _ = rows.at(R, T, rows.frame(xy, inside, np.array(CAM.focal), 0.5))
+    r, J, w = rows.at(R, T, rows.frame(xy, inside, np.array(CAM.focal), 0.5))
     assert np.all(np.isfinite(r)) and np.all(np.isfinite(J))
     n = len(contour.inner)
     nose = int(np.flatnonzero(contour.inner == 30)[0])
