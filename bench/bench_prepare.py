@@ -59,11 +59,15 @@ def _cpu_of(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / TICKS
 
 
-def run_prepare(checkout: Path, extra: list[str]) -> Run:
-    """``aamtrack model prepare`` of ``checkout`` in an empty cache, timed phase by phase."""
+def run_prepare(checkout: Path, extra: list[str], keep: Path | None = None) -> Run:
+    """``aamtrack model prepare`` of ``checkout`` in an empty cache (``keep``: that folder,
+    kept after), timed phase by phase."""
     run = Run(checkout, load=(os.getloadavg()[0], 0.0))
     aamtrack = checkout / ".venv" / "bin" / "aamtrack"
-    with tempfile.TemporaryDirectory(prefix="bench-prepare-") as cache:
+    if keep is not None and keep.exists() and any(keep.iterdir()):
+        raise SystemExit(f"{keep} is not empty: the cache must start empty")
+    with tempfile.TemporaryDirectory(prefix="bench-prepare-") as temporary:
+        cache = str(keep or temporary)
         env = {k: v for k, v in os.environ.items() if k != "AAMTRACK_PROGRESS"}  # lines
         env |= {"AAMTRACK_CACHE": cache, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(checkout)}
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -112,13 +116,18 @@ def main() -> None:
                         help="the fitting model only (the target is for both)")
     parser.add_argument("--runs", type=int, default=1)
     parser.add_argument("--vs", type=Path, help="another checkout to run in turn with this one")
+    parser.add_argument("--keep", type=Path,
+                        help="an empty folder to train this checkout's models in, kept after "
+                             "(one run, no --vs)")
     args = parser.parse_args()
+    if args.keep and (args.vs or args.runs > 1):
+        parser.error("--keep trains one model: no --vs, one run")
     extra = ["--no-classifier"] if args.no_classifier else []
     checkouts = [HERE] + ([args.vs.resolve()] if args.vs else [])
     runs: dict[Path, list[Run]] = {c: [] for c in checkouts}
     for k in range(args.runs):
         for checkout in checkouts if k % 2 == 0 else checkouts[::-1]:
-            run = run_prepare(checkout, extra)
+            run = run_prepare(checkout, extra, args.keep if checkout == HERE else None)
             print_run(run)
             runs[checkout].append(run)
     what = "fitting model" if args.no_classifier else "fitting model and classifier"
