@@ -15,8 +15,11 @@ truth as frame-to-frame motion moves it, 4 starts per face (dlib's scheme for tr
 each frame starts afresh); one fern stage regressing
 ``log(NME)`` on shapes from good to far off and on frames without a face; the failure
 threshold calibrated on held-out fits. On two cores (``aamtrack model prepare``, recipe
-fitting v12) the coarse stages train in 41 s, the fern stages in 61 s and the restart
-stages in 31 s.
+fitting v12) the coarse stages trained in 41 s, the fern stages in 61 s and the restart
+stages in 31 s; recipe v13 (:data:`FAST`) chooses each landmark's tests on a subset of the
+samples and starts the solve on all samples from the folds' solutions: its fern stages took
+135 CPU seconds against v12's 216 on a machine more loaded (load 16-30 against 2-19, where
+the unchanged phases took 1.2-2 times longer; ``bench/bench_prepare.py``).
 """
 
 from __future__ import annotations
