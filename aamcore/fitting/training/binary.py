@@ -54,10 +54,11 @@ model, calibrated to keep 99 % of its good (NME < 0.08) Haar fits on one half of
 held-out photos; ``bench/bench_fit_lfpw.py`` reports what it keeps and rejects per set."""
 
 
-FAST = {"grow_samples": 8192, "warm_iterations": 15}
-"""How the fern and restart stages are learned in a few minutes: each landmark's tests
-chosen on 8,192 samples (of 25,536 and 12,768), the regression on all samples started
-from the cross-fitting folds' mean."""
+FAST = {"warm_iterations": 20}
+"""How the fern and restart stages are learned: the regression on all samples started from
+the cross-fitting folds' mean, 20 steps instead of 40 from scratch. (Choosing each landmark's
+tests on 8,192 of the samples, ``grow_samples``, took a third off the fern stages' CPU time
+but cost 3 % on LFPW's median NME: 0.0346 against 0.0335.)"""
 
 
 @dataclass(frozen=True)
