@@ -28,6 +28,8 @@ MAX_GAP_S = 0.5
 
 def _alpha(cutoff_hz: np.ndarray | float, dt: float) -> np.ndarray | float:
     """Smoothing factor of an exponential filter with this cut-off at step ``dt`` (eq. 2)."""
+    if isinstance(cutoff_hz, float):
+        return 1.0 / (1.0 + 1.0 / (2.0 * math.pi * cutoff_hz * dt))
     tau = 1.0 / (2.0 * math.pi * np.asarray(cutoff_hz))
     return 1.0 / (1.0 + tau / dt)
 
@@ -69,11 +71,12 @@ class OneEuroFilter:
         """Forget the past: the next sample passes unchanged."""
         self._x = self._dx = None
 
-    def __call__(self, x: np.ndarray, t: float, speed_scale: float = 1.0) -> np.ndarray:
+    def __call__(self, x: np.ndarray, t: float, speed_scale: float | np.ndarray = 1.0
+                 ) -> np.ndarray:
         """The filtered value of sample ``x`` at time ``t`` (seconds).
 
         ``speed_scale`` divides the speed before it raises the cut-off (the
-        face size, for landmarks in pixels).
+        face size, for landmarks in pixels; an array: each value's own).
         """
         x = np.asarray(x, dtype=np.float64)
         dt = t - self._t

@@ -265,8 +265,8 @@ class OnlineCalibration:
             worker.join(timeout)
         return not self.pending
 
-    def estimate(self, landmarks: np.ndarray, camera: CameraIntrinsics, learn: bool = True
-                 ) -> ContourPoseEstimate:
+    def estimate(self, landmarks: np.ndarray, camera: CameraIntrinsics, learn: bool = True,
+                 start: tuple[np.ndarray, np.ndarray] | None = None) -> ContourPoseEstimate:
         """Estimate with the current model; keep the frame; start a refinement when due.
 
         Parameters
@@ -276,13 +276,15 @@ class OnlineCalibration:
         camera : CameraIntrinsics
         learn : bool
             Keep the frame if its pose is reliable (False: a fit not to learn from).
+        start : (R, T), optional
+            A pose to start from (:meth:`ContourPose.estimate`).
 
         Raises
         ------
         PoseError
             As :meth:`ContourPose.estimate`.
         """
-        est = self.current.estimate(landmarks, camera)
+        est = self.current.estimate(landmarks, camera, start)
         if learn and est.reliable:
             self._keep(np.array(landmarks, np.float64), camera, est)
             s = self.settings

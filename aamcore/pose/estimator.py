@@ -11,7 +11,7 @@ stack give the same numbers.
 
 from __future__ import annotations
 
-import dataclasses
+import copy
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -88,7 +88,10 @@ class HeadPose:
 
     def with_rotation(self, R: np.ndarray, T: np.ndarray) -> HeadPose:
         """The same pose with rotation ``R`` (3, 3) and translation ``T`` (3,) (smoothed)."""
-        return HeadPose(dataclasses.replace(self.estimate, R=R, T=T), self.camera)
+        estimate = copy.copy(self.estimate)  # dataclasses.replace, without its overhead
+        object.__setattr__(estimate, "R", R)
+        object.__setattr__(estimate, "T", T)
+        return HeadPose(estimate, self.camera)
 
     @property
     def reason(self) -> str:
@@ -131,14 +134,16 @@ class HeadPoseEstimator:
         self.cameras = cameras or Cameras()
         self.method = method
         self.calibration: OnlineCalibration | None = None
+        self._last: tuple[np.ndarray, np.ndarray] | None = None
         if method == "posit":
             self.model = model or openface68(rigid_subset=POSE_SUBSET)
             posit = self.model.posit()
-            self._estimate = lambda lm, cam, learn: posit.estimate(self.model.select(lm), cam)
+            self._estimate = lambda lm, cam, learn, start: posit.estimate(self.model.select(lm),
+                                                                          cam)
         elif method == "contour":
             contour = ContourPose(model)
             self.model = contour.model
-            self._estimate = lambda lm, cam, learn: contour.estimate(lm, cam)
+            self._estimate = lambda lm, cam, learn, start: contour.estimate(lm, cam, start)
         else:
             self.calibration = OnlineCalibration(model)
             self.model = self.calibration.model
@@ -149,7 +154,9 @@ class HeadPoseEstimator:
         """The pose of ``landmarks`` (68, 2) found in a frame of ``width`` x ``height``.
 
         ``learn=False`` keeps ``contour+calib`` from learning the face from this
-        fit (one that failed its test).
+        fit (one that failed its test). The contour methods start from the face's previous
+        pose (from POSIT's answer after :meth:`reset`, a failed estimate, or when the
+        previous pose does not lead to a reliable one): an estimator follows one face.
 
         Raises
         ------
@@ -160,18 +167,22 @@ class HeadPoseEstimator:
             For a frame size the camera cannot have.
         """
         camera = self.cameras.at(width, height)
+        start, self._last = self._last, None
         try:
-            estimate = self._estimate(np.asarray(landmarks, np.float64), camera, learn)
+            estimate = self._estimate(np.asarray(landmarks, np.float64), camera, learn, start)
         except (cv2.error, np.linalg.LinAlgError) as exc:
             # Degenerate input the checks let through (landmarks within a pixel or two):
             # no pose, with the solver's complaint, rather than a crash.
             first = str(exc).strip().splitlines()[-1][:160] if str(exc).strip() else ""
             raise PoseError(f"no pose: the solver failed on these landmarks "
                             f"({type(exc).__name__}: {first})") from exc
+        if estimate.converged:
+            self._last = (estimate.R, estimate.T)
         return HeadPose(estimate, camera)
 
     def reset(self) -> None:
-        """Forget the face (``contour+calib``: back to the mean head model)."""
+        """Forget the face: its last pose (``contour+calib``: back to the mean head model)."""
+        self._last = None
         if self.calibration is not None:
             self.calibration.reset()
 

@@ -60,11 +60,12 @@ class CameraIntrinsics:
         object.__setattr__(self, "width", int(self.width))
         object.__setattr__(self, "height", int(self.height))
         object.__setattr__(self, "_K_inv", np.linalg.inv(K))
+        object.__setattr__(self, "_distorted", bool(np.any(dist != 0.0)))
 
     @property
     def has_distortion(self) -> bool:
         """True if any distortion coefficient is non-zero."""
-        return bool(np.any(self.dist != 0.0))
+        return self._distorted  # type: ignore[attr-defined]
 
     @property
     def focal(self) -> tuple[float, float]:

@@ -218,7 +218,18 @@ class Posit:
         """
         pts = self._check_points(image_points)
         cam = camera if isinstance(camera, CameraIntrinsics) else CameraIntrinsics(camera)
-        xy = cam.normalize(pts)
+        return self.estimate_normalised(cam.normalize(pts), np.array(cam.focal), weights)
+
+    def estimate_normalised(self, xy: np.ndarray, fxy: np.ndarray,
+                            weights: np.ndarray | None = None) -> PoseEstimate:
+        """:meth:`estimate` from finite, undistorted normalised coordinates ``xy`` (N, 2)
+        (``K^-1 [u, v, 1]``; not checked) and the focal lengths ``fxy`` (2,), in pixels.
+
+        Raises
+        ------
+        PoseError
+            For weights :meth:`estimate` refuses.
+        """
         if weights is None:
             pinv, w_pts = self._M_pinv, None
         else:
@@ -226,7 +237,6 @@ class Posit:
             Mw = self._M * w_pts[:, None]
             pinv = np.linalg.solve(self._M.T @ Mw, Mw.T)
         R, Tc, iterations, converged, delta = self._posit(xy, pinv)
-        fxy = np.array(cam.focal)
         if self.refine_iterations > 0 and converged:
             R, Tc = gauss_newton(R, Tc, self._Xc, xy, w_pts, fxy, self.refine_iterations)
         rms, spread, min_depth = self._residual(R, Tc, xy, w_pts, fxy)

@@ -18,8 +18,10 @@ vertical axis is the yaw.)
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
+import cv2
 import numpy as np
 
 
@@ -77,13 +79,15 @@ def rpy_from_rotation(R: np.ndarray, degrees: bool = True) -> RPY:
         If ``R`` is not a finite (3, 3) array.
     """
     R = np.asarray(R, dtype=np.float64)
-    if R.shape != (3, 3) or not np.all(np.isfinite(R)):
+    if R.shape != (3, 3) or not np.isfinite(R).all():
         raise ValueError(f"rotation must be a finite (3, 3) array, got shape {R.shape}")
-    roll = np.arctan2(R[1, 0], R[0, 0])
-    yaw = np.arctan2(-R[2, 0], R[0, 0] * np.cos(roll) + R[1, 0] * np.sin(roll))
-    pitch = np.arctan2(R[2, 1], R[2, 2])
-    values = np.degrees([roll, pitch, yaw]) if degrees else np.array([roll, pitch, yaw])
-    return RPY(float(values[0]), float(values[1]), float(values[2]))
+    (r00, _, _), (r10, _, _), (r20, r21, r22) = R.tolist()
+    roll = math.atan2(r10, r00)
+    yaw = math.atan2(-r20, r00 * math.cos(roll) + r10 * math.sin(roll))
+    pitch = math.atan2(r21, r22)
+    if degrees:
+        return RPY(math.degrees(roll), math.degrees(pitch), math.degrees(yaw))
+    return RPY(roll, pitch, yaw)
 
 
 def nearest_rotation(M: np.ndarray) -> np.ndarray:
@@ -95,9 +99,13 @@ def nearest_rotation(M: np.ndarray) -> np.ndarray:
         A matrix near a rotation, e.g. POSIT's rows ``r1, r2, r3`` that are only
         approximately orthonormal.
     """
-    u, _, vt = np.linalg.svd(M)
-    d = np.sign(np.linalg.det(u @ vt))
-    return u @ np.diag([1.0, 1.0, d]) @ vt
+    _, u, vt = cv2.SVDecomp(np.asarray(M, dtype=np.float64))
+    R = u @ vt
+    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
+    if a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) < 0.0:
+        # a reflection: turn the least stretched axis back
+        R = u @ np.diag([1.0, 1.0, -1.0]) @ vt
+    return R
 
 
 def rotation_angle_deg(R_a: np.ndarray, R_b: np.ndarray) -> float:

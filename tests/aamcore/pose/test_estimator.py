@@ -53,6 +53,22 @@ def test_contour_holds_at_large_yaw_where_posit_on_all_points_does_not() -> None
     assert rotation_angle_deg(all68.R, truth) > 3.0
 
 
+def test_an_estimator_follows_its_face_from_the_last_pose_until_reset() -> None:
+    est = HeadPoseEstimator()
+    uv = annotated(30.0, 5.0) + np.random.default_rng(2).normal(0.0, 1.5, (68, 2))
+    first = est.estimate(uv, *SIZE).estimate
+    again = est.estimate(uv, *SIZE).estimate
+    assert again.iterations == 1 < first.iterations
+    assert rotation_angle_deg(again.R, first.R) < 0.02
+    with pytest.raises(PoseError):
+        est.estimate(np.full((68, 2), np.nan), *SIZE)
+    after_error = est.estimate(uv, *SIZE).estimate
+    est.reset()
+    after_reset = est.estimate(uv, *SIZE).estimate
+    for cold in (after_error, after_reset):  # from POSIT again, as the first
+        assert cold.iterations == first.iterations and np.array_equal(cold.R, first.R)
+
+
 def test_an_unreliable_pose_says_why_and_bad_input_gives_none() -> None:
     est = HeadPoseEstimator()
     profile = est.estimate(annotated(85.0), *SIZE)

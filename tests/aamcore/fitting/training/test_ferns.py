@@ -96,3 +96,38 @@ def test_a_stage_brings_tracking_starts_closer(synthetic_training_faces) -> None
     leaves = fern_leaves(packed, owners, starts, space, stage)
     in_sample = stage.weights.astype(np.float64)[leaves].sum(axis=1) + stage.bias
     assert in_sample.shape == steps.shape and stage.n_points == space.n_points
+
+
+def test_tests_chosen_on_a_subset_are_the_leaves_of_every_sample(
+        synthetic_training_faces) -> None:
+    faces = synthetic_training_faces
+    truths = np.stack([f.points for f in faces])
+    space = ShapeSpace.train(truths, 0.98, (0, 1))
+    rng = np.random.default_rng(4)
+    owners = np.repeat(np.arange(len(faces)), 6)
+    starts = perturbed_starts(space, truths[owners], np.zeros(4), np.array([0.03, 0.03, 3, 3]),
+                              rng, shape_sd=0.3)
+    samples = Samples(owners, truths[owners], starts, owners % 2)
+    packed = PackedImages.pack([f.grey for f in faces])
+    config = FernConfig(0.3, n_ferns=3, grow_samples=len(owners) // 3, warm_iterations=15)
+    stage, steps = train_fern_stage(packed, samples, space, config, rng)
+    # the stage as the fitter runs it sends every sample to the leaves it was learned with
+    leaves = fern_leaves(packed, owners, starts, space, stage)
+    moved = space.apply_steps(starts, steps, project=False)
+    before = np.linalg.norm(starts - truths[owners], axis=-1).mean()
+    assert np.linalg.norm(moved - truths[owners], axis=-1).mean() < 0.8 * before
+    in_sample = stage.weights.astype(np.float64)[leaves].sum(axis=1) + stage.bias
+    fitted = space.apply_steps(starts, in_sample, project=False)
+    assert np.linalg.norm(fitted - truths[owners], axis=-1).mean() < 0.8 * before
+
+
+def test_the_solve_on_every_sample_starts_from_the_folds_and_reaches_the_cold_one() -> None:
+    rng = np.random.default_rng(5)
+    n, t, leaves_per = 600, 6, 8
+    leaves = rng.integers(0, leaves_per, (n, t)) + np.arange(t) * leaves_per
+    targets = leaves @ rng.normal(size=(t, 2)) * 0.1 + rng.normal(size=(n, 2))
+    folds = rng.integers(0, 2, n)
+    config = FernConfig(1.0, cg_iterations=60, warm_iterations=10)
+    warm = stage_solves(leaves, t * leaves_per, targets, folds, config, 1)
+    cold = leaf_ridge(leaves, t * leaves_per, targets, config.ridge, 200)
+    assert np.allclose(warm[0], cold[0], atol=1e-3) and np.allclose(warm[1], cold[1])

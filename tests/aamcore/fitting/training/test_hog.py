@@ -27,3 +27,15 @@ def test_coarse_stages_bring_box_starts_closer(synthetic_training_faces) -> None
     before = np.linalg.norm(starts - truths, axis=-1).mean()
     after = np.linalg.norm(samples.shapes - truths, axis=-1).mean()
     assert after < 0.7 * before
+
+
+def test_the_gram_matrix_in_float32_blocks_is_the_float64_one() -> None:
+    from aamcore.fitting.training.hog import centred_gram
+
+    x = np.random.default_rng(0).uniform(0.0, 0.4, (3001, 50)).astype(np.float32)
+    xc = x - x.mean(axis=0)
+    exact = xc.astype(np.float64).T @ xc.astype(np.float64)
+    for jobs in (1, 2):
+        gram = centred_gram(xc, jobs)
+        assert gram.dtype == np.float64
+        assert np.abs(gram - exact).max() < 1e-5 * np.abs(exact).max()
