@@ -10,11 +10,12 @@ everything without a word (see :mod:`services.rerun_logger.viewer`).
 A file ends with Rerun's footer, the index of its chunks, written when the recording is
 closed: ``rerun rrd verify`` and Rerun's lazy loading need it. Rerun keeps that index in
 memory until then, about 3.5 kB a chunk (measured on the stack's own messages), and makes a
-chunk per entity each time it flushes its batches: at its default 0.2 s a run at the
-fastest pacing grew the logger by about 1 MB/s. A recording that goes to a file only is
-therefore batched into chunks of up to :data:`FILE_FLUSH_S` seconds per entity, which keeps
-the index to a few kB/s; one that a viewer watches live keeps Rerun's default, so that
-each frame shows at once (its file's index then grows with the run).
+chunk per entity each time it flushes its batches. At its default 0.2 s, the stack's
+messages replayed at 16 frames/s made 25,611 chunks in 210 s and the process grew 18 % in
+its last 150 s; at 5 s, 399 chunks and no growth. A recording that goes to a file only is
+therefore batched into chunks of up to :data:`FILE_FLUSH_S` seconds per entity; one that a
+viewer watches live keeps Rerun's default, so that each frame shows at once (its file's
+index then grows with the run).
 """
 
 from __future__ import annotations
@@ -38,8 +39,9 @@ FULL_BYTES = 1 << 20
 """Free bytes under which a folder's device is called full."""
 FILE_FLUSH_S = 5.0
 """Seconds of data per entity in a chunk of a recording that goes to a file only."""
-FILE_FLUSH_BYTES = 8 * 2**20
-"""Bytes per entity that flush its chunk sooner (the video's frames: a few seconds)."""
+FILE_FLUSH_BYTES = 2 * 2**20
+"""Bytes per entity that flush its chunk sooner (Rerun's default: the video's frames about
+every second), so that little of the images waits in memory."""
 
 
 def file_batching() -> rr.ChunkBatcherConfig:
