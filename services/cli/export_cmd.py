@@ -116,8 +116,8 @@ def cmd_export(args: argparse.Namespace) -> int:
     finally:
         for writer in writers:
             writer.close()
-    if args.rrd is not None:
-        replay(recording.messages, args.rrd)
+    if args.rrd is not None and (problem := replay(recording.messages, args.rrd)):
+        return _fail("export", f"--rrd {problem}", 1)
     said = f"exported {len(exported.results)} rows ({frames} frames) of {args.recording}"
     if args.annotate is not None:
         written, glasses = export_annotated(recording.messages, exported.results, args.video,
@@ -132,8 +132,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
-def replay(messages: list, rrd: Path) -> None:
-    """Log recorded messages into a new ``.rrd`` file."""
+def replay(messages: list, rrd: Path) -> str:
+    """Log recorded messages into a new ``.rrd`` file; ``""``, or why it could not be
+    written whole (a full disk)."""
     from services.rerun_logger.blueprint import build_blueprint
     from services.rerun_logger.dispatch import StreamLogger
     from services.rerun_logger.recording import open_recording
@@ -145,7 +146,8 @@ def replay(messages: list, rrd: Path) -> None:
         for msg in shown(messages, f"replaying into {rrd.name}", len(messages), "message"):
             logger.log(msg)
     finally:
-        recording.close()
+        problem = recording.file_problem(recording.close())
+    return problem
 
 
 def cmd_track(args: argparse.Namespace) -> int:

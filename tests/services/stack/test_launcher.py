@@ -18,7 +18,6 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-import cv2
 import msgpack
 import numpy as np
 import pytest
@@ -35,6 +34,7 @@ from services.stack.options import StackOptions
 from services.stack.outcome import EXIT_FAILED, exit_code, unanswered_problem
 from services.stack.recorder import load_messages, read_recording
 from tests.expectations import FRAMES, GOOD_SHARE, check_poses
+from tests.videos import decoded_frames
 
 RERUN_CLI = Path(sys.executable).with_name("rerun")
 
@@ -44,16 +44,6 @@ def run_stack(opts: StackOptions) -> tuple[Stack, dict]:
         outcome = stack.wait()
     assert outcome == "done", stack.summary()
     return stack, stack.summary()
-
-
-def decoded_frames(video: Path) -> int:
-    """Frames OpenCV decodes from ``video`` (container counts can be off)."""
-    cap = cv2.VideoCapture(str(video))
-    n = 0
-    while cap.read()[0]:
-        n += 1
-    cap.release()
-    return n
 
 
 def by_frame(messages: list, kind: str) -> dict[int, object]:

@@ -1,9 +1,13 @@
-"""MP4 files with their index (the ``moov`` box) at the front, as streaming encoders write
-them (``ffmpeg -movflags +faststart``): half of such a file still states every frame."""
+"""Test videos: the frames OpenCV decodes from a file, and MP4 files with their index (the
+``moov`` box) at the front, as streaming encoders write them (``ffmpeg -movflags
++faststart``): half of such a file still states every frame."""
 
 from __future__ import annotations
 
 import struct
+from pathlib import Path
+
+import cv2
 
 CONTAINERS = {b"moov", b"trak", b"mdia", b"minf", b"stbl"}
 """Boxes holding the chunk offset tables (``stco``, ``co64``) somewhere below them."""
@@ -48,3 +52,13 @@ def faststart(mp4: bytes) -> bytes:
     rest = [mp4[a:a + s] for kind, a, s in boxes if kind not in (b"ftyp", b"moov")]
     _, first, first_size = boxes[0]
     return mp4[first:first + first_size] + bytes(moov) + b"".join(rest)
+
+
+def decoded_frames(video: Path) -> int:
+    """Frames OpenCV decodes from ``video`` (container counts can be off)."""
+    capture = cv2.VideoCapture(str(video))
+    frames = 0
+    while capture.read()[0]:
+        frames += 1
+    capture.release()
+    return frames
