@@ -12,8 +12,8 @@ This module does not import ``rerun``: the launcher uses it.
 
 from __future__ import annotations
 
+import importlib.util
 import subprocess
-import sys
 from pathlib import Path
 
 FINISH_TIMEOUT_S = 600.0
@@ -35,22 +35,33 @@ def unfinished_parts(rrd: str | Path, restarts: int, closed: set[int]) -> list[P
     return [p for p in parts if p.is_file()]
 
 
-def finish(path: Path) -> str:
-    """Write ``path`` again with its footer (``rerun rrd migrate``); "" when done, else why
-    not (the file is then left as it was)."""
-    backup = path.with_name(f"{path.stem}.backup{path.suffix}")
+def rerun_cli(*args: str) -> str:
+    """Run the Rerun command line (the binary of the ``rerun-sdk`` package: ``python -m
+    rerun_cli`` would not pass its exit code on); ``""`` when it succeeds, else its last
+    line."""
+    spec = importlib.util.find_spec("rerun_cli")
+    if spec is None or spec.origin is None:
+        return "the Rerun command line is not installed"
     try:
-        done = subprocess.run([sys.executable, "-m", "rerun_cli", "rrd", "migrate", str(path)],
+        done = subprocess.run([str(Path(spec.origin).with_name("rerun")), *args],
                               capture_output=True, text=True, timeout=FINISH_TIMEOUT_S)
     except (OSError, subprocess.TimeoutExpired) as exc:
-        done = None
-        why = str(exc)
-    else:
-        lines = (done.stderr or done.stdout).strip().splitlines()
-        why = lines[-1] if lines else f"exit {done.returncode}"
-    if done is not None and done.returncode == 0 and path.is_file():
-        backup.unlink(missing_ok=True)
+        return str(exc)
+    if done.returncode == 0:
         return ""
-    if backup.is_file():
+    lines = [line.strip() for line in (done.stderr + done.stdout).splitlines() if line.strip()]
+    cause = [line for line in lines if "os error" in line]  # the system's own word, if any
+    return (cause or lines or [f"exit {done.returncode}"])[-1]
+
+
+def finish(path: Path) -> str:
+    """Write ``path`` again with its footer (``rerun rrd migrate``, which keeps the file as
+    it was beside it until the new one verifies); ``""`` when done, else why not (the file
+    is then left as it was: on a full disk, say)."""
+    backup = path.with_name(f"{path.stem}.backup{path.suffix}")
+    why = rerun_cli("rrd", "migrate", str(path)) or rerun_cli("rrd", "verify", str(path))
+    if not why:
+        backup.unlink(missing_ok=True)
+    elif backup.is_file():
         backup.replace(path)
     return why
