@@ -388,7 +388,8 @@ def _run_stack(opts: StackOptions) -> int:
     if opts.launch.summary:
         try:
             Path(opts.launch.summary).write_text(json.dumps(summary, indent=2))
-        except OSError as exc:
+        except OSError as exc:  # no half-written JSON left behind
+            Path(opts.launch.summary).unlink(missing_ok=True)
             unsaved = f"--summary {opts.launch.summary}: cannot be written ({exc.strerror})"
     say_unwritten(opts)
     if stack.outcome == "done" and (problem := output_problem(stack.monitor)):
