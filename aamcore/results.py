@@ -15,9 +15,14 @@ row's messages were checked against) writes them last, the same in every row.
 frame without a tracked face.
 ``occluded_i`` is 1 where landmark ``i``'s part of the face is covered (from the
 AAM's texture residual), 0 where it is not, empty where it was not judged;
-``score_<class>`` are probabilities summing to 1; ``expression_reason`` says why a
-frame has no expression label, ``reason`` why it has no face, a failed fit or an
-unreliable pose.
+``expression`` is the class's code (:data:`EXPRESSIONS`: AN anger, DI disgust, FE fear,
+HA happiness, NE neutral, SA sadness, SU surprise) and ``score_<code>`` the probability of
+each class, summing to 1; ``expression_reason`` says why a face has no expression label
+(:data:`EXPRESSION_REASONS`: no face, face too small, face outside the frame, head rolled,
+face covered, face in profile, implausible landmarks, learning the face's reference, ...),
+``reason`` why a frame has no face, a failed fit or an unreliable pose (:data:`REASONS`).
+Each reason starts with one of those phrases and goes on with the figures that decided it
+(``"face in profile: turned about 52 degrees (at most 40)"``).
 
 Translations are millimetres in camera coordinates, angles degrees; a value
 that does not exist for a frame (no face, no pose) is left empty. JSON Lines
@@ -37,6 +42,68 @@ if TYPE_CHECKING:
     from aamcore.tracker import FaceResult
 
 FORMATS = ("csv", "jsonl")
+
+EXPRESSIONS: dict[str, str] = {
+    "AN": "anger", "DI": "disgust", "FE": "fear", "HA": "happiness",
+    "NE": "neutral (no expression)", "SA": "sadness", "SU": "surprise"}
+"""The expression classes by their code (JAFFE's): the ``expression`` column holds one, and
+each has its ``score_<code>`` column."""
+
+EXPRESSION_REASONS: dict[str, str] = {
+    "no face": "no face in the frame, or its fit failed (the fit's reason follows)",
+    "unusable landmarks": "the fit's landmarks are not the finite 68 the classifier reads",
+    "no features": "the features could not be taken from the face (the image's edge)",
+    "face too small": "the eyes are closer than the classifier can read",
+    "face outside the frame": "too many landmarks beyond the frame",
+    "head rolled": "the eye line tilted further than the classifier learned",
+    "face covered": "too many inner landmarks flagged occluded",
+    "face in profile or badly fitted": "the face's texture unlike its mirror image",
+    "face in profile": "the head turned further than the classifier learned",
+    "implausible landmarks": "a face shape unlike every face the classifier learned from "
+                             "(a fit gone wrong)",
+    "learning the face's reference": "the first frames of a face, when the classifier reads "
+                                     "faces only against their own neutral reference",
+    "no classifier": "the stack's expression service runs without one (why follows)",
+    "wrong feature length": "a classifier made for another model",
+}
+"""Why a face has no expression label: what an ``expression_reason`` starts with."""
+
+REASONS: dict[str, str] = {
+    "no face": "no face found in the frame",
+    "face too small": "under 8 px between the outer eye corners",
+    "no contrast around the landmarks": "a blank or flat image where the face should be",
+    "fit-quality score": "the landmarks' learned quality score says the fit failed",
+    "appearance": "an AAM method's failure test (chi-square or eq. 7.2 of the thesis)",
+    "non-finite": "the fit diverged",
+    "degenerate shape": "the fit collapsed to a line or a point",
+    "profile": "the head turned past 75 degrees: half the landmarks are guesses",
+    "points outside the frame or missing": "too many landmarks beyond the frame",
+    "landmarks do not fit the head": "the head model cannot be placed on these landmarks",
+    "too many outlying landmarks": "too few landmarks agree with the head model",
+    "poorly determined": "the angles are too uncertain",
+    "did not converge": "the pose estimate did not settle",
+    "no valid pose": "the head would be behind the camera",
+    "the model faces away": "the landmarks are mirrored (left and right swapped?)",
+}
+"""Why a frame has no face, a failed fit or an unreliable pose: what a ``reason`` starts
+with (the fit's reason before the pose's)."""
+
+
+def explained(reason: str, table: dict[str, str]) -> str:
+    """The phrase of ``table`` that ``reason`` starts with, or ``""`` (an empty reason, or
+    one no table explains)."""
+    return next((key for key in table if reason.startswith(key)), "")
+
+
+def columns_notes() -> str:
+    """The expression codes and the reasons, as the commands' help gives them."""
+    codes = ", ".join(f"{code} {word}" for code, word in EXPRESSIONS.items())
+    why = "; ".join(EXPRESSION_REASONS)
+    bad = "; ".join(REASONS)
+    return (f"Expressions, by their code: {codes}. Why a face has no expression label "
+            f"(expression_reason): {why}. Why a frame has no face, a failed fit or an "
+            f"unreliable pose (reason): {bad}. Each reason goes on with the figures that "
+            "decided it; the README explains each.")
 
 
 def columns(n_points: int, class_names: Sequence[str]) -> list[str]:

@@ -22,6 +22,9 @@ ENV_PARENT = "AAMTRACK_PARENT_PID"
 """Set by the launcher's supervisor: the process a service must die with."""
 ENV_RESTARTS = "AAMTRACK_RESTARTS"
 """Set by the supervisor to the number of times it restarted the service."""
+ENV_LOG_LEVEL = "AAMTRACK_LOG_LEVEL"
+"""The level a service logs at (default INFO; ``--verbose``: DEBUG). The launcher sets
+WARNING, so that a run prints its progress and summary, not each service's news."""
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
 WATCH_PERIOD = 0.05
 """Seconds between two looks at the signal flag and the parent."""
@@ -41,9 +44,10 @@ def init_process(name: str, verbose: bool = False) -> logging.Logger:
 
     cv2.setNumThreads(1)
     root = logging.getLogger()
+    level = os.environ.get(ENV_LOG_LEVEL, "INFO").upper()
     if not root.handlers:
         logging.basicConfig(
-            level=logging.DEBUG if verbose else logging.INFO,
+            level=logging.DEBUG if verbose else getattr(logging, level, logging.INFO),
             format=f"%(asctime)s {name}[%(process)d] %(levelname)s %(message)s",
         )
     elif verbose:

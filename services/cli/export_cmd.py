@@ -36,8 +36,10 @@ from services.cli.commands import add_command
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``export`` and ``track``."""
+    from aamcore.results import columns_notes
+
     p = add_command(subparsers, "export",
-                    description="Write one row per frame of RECORDING.")
+                    description="Write one row per frame of RECORDING.", epilog=columns_notes())
     p.add_argument("recording", type=Path, help="a .rec file of aamtrack run --record")
     _outputs(p)
     p.add_argument("--rrd", type=Path, help="replay it into this Rerun recording")
@@ -47,8 +49,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_annotate(p, export=True)
     p.set_defaults(func=cmd_export)
     p = add_command(subparsers, "track", description="Run the Python API's "
-                              "FaceTracker on VIDEO.")
-    p.add_argument("video", type=Path)
+                    "FaceTracker on VIDEO.", epilog=columns_notes())
+    p.add_argument("video", type=Path, help="the video file to track")
     _outputs(p)
     add_annotate(p, export=False)
     from services.cli.track_options import add_track_options
@@ -125,8 +127,8 @@ def cmd_export(args: argparse.Namespace) -> int:
     finally:
         for writer in writers:
             writer.close()
-    if args.rrd is not None:
-        replay(recording.messages, args.rrd)
+    if args.rrd is not None and (problem := replay(recording.messages, args.rrd)):
+        return _fail("export", f"--rrd {problem}", 1)
     said = (f"exported {len(exported.results)} rows ({frames} frames) of {args.recording}, "
             f"{recording.verified}")
     if recording.ignored:
@@ -145,8 +147,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
-def replay(messages: list, rrd: Path) -> None:
-    """Log recorded messages into a new ``.rrd`` file."""
+def replay(messages: list, rrd: Path) -> str:
+    """Log recorded messages into a new ``.rrd`` file; ``""``, or why it could not be
+    written whole (a full disk)."""
     from services.rerun_logger.blueprint import build_blueprint
     from services.rerun_logger.dispatch import StreamLogger
     from services.rerun_logger.recording import open_recording
@@ -158,7 +161,8 @@ def replay(messages: list, rrd: Path) -> None:
         for msg in shown(messages, f"replaying into {rrd.name}", len(messages), "message"):
             logger.log(msg)
     finally:
-        recording.close()
+        problem = recording.file_problem(recording.close())
+    return problem
 
 
 def cmd_track(args: argparse.Namespace) -> int:
@@ -176,7 +180,7 @@ def cmd_track(args: argparse.Namespace) -> int:
         return _fail("track", str(exc), 2)
     if problem := video_problem(args.video):
         return _fail("track", problem, 2)
-    from aamcore.io.video import video_facts
+    from aamcore.io.video import ended_early, ended_early_problem, video_facts
     from aamcore.model.file import ModelFileError
     from aamcore.tracker import FaceTracker
 
@@ -192,9 +196,9 @@ def cmd_track(args: argparse.Namespace) -> int:
     print(said, file=sys.stderr)
     if glasses:
         print(f"aamtrack track: {glasses}", file=sys.stderr)
-    if tracker.frames == 0 or tracker.frames < expected:
-        return _fail("track", f"{args.video}: the video ended after {tracker.frames} of its "
-                     f"{expected} frames (cut short?); the rows of those frames are written", 1)
+    if tracker.frames == 0 or ended_early(tracker.frames, expected):
+        return _fail("track", f"{ended_early_problem(args.video, tracker.frames, expected)}; "
+                     "the rows of the frames before are written", 1)
     return 0
 
 

@@ -22,9 +22,11 @@ from services.stack.registry import SERVICES
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``run`` and ``service``."""
+    from aamcore.results import columns_notes
+
     p = add_command(subparsers, "run",
-                              description="Start every service as its own process, run until "
-                              "the end of the input, stop them all and print a summary.")
+                    description="Start every service as its own process, run until the end "
+                    "of the input, stop them all and print a summary.", epilog=columns_notes())
     p.add_argument("--stack", metavar="FILE", help="take the services and their options from "
                    "a stack file (deploy/stack.toml); options given here override it")
     p.add_argument("--host", help="with --stack: run only this host's services, joined to "

@@ -27,9 +27,13 @@ loopback (``--serve PORT``), to a viewer that runs already (``--viewer
   public keys; started on its own it fetches them from the run's launcher (``--trust FP``
   names its key; without it, the only launcher that answers) and checks every message, or
   logs everything with ``--unverified``. The recording says which, in its events.
-- The file has no footer (Rerun's index of its chunks, which Rerun would keep in memory
-  for the whole run): the logger stays flat over a long run; ``rerun rrd optimize``
-  adds the index afterwards.
+- The file ends with Rerun's footer, written when the service stops (at the end of
+  stream or on a stop signal), and its memory stays flat over a long run (see
+  :mod:`services.rerun_logger.recording`); the part of a process that was killed is
+  finished by the launcher (:mod:`services.rerun_logger.files`).
+- A file that can no longer be written (a full disk) stops the service: it exits 0 (a
+  restart would not help) with its last status "failed" naming the file, which ends the
+  run with that line (:mod:`services.stack.outcome`); what was written before is kept.
 """
 
 from __future__ import annotations
@@ -38,7 +42,6 @@ import logging
 import sys
 import time
 from collections.abc import Sequence
-from pathlib import Path
 
 from aamcore.ar.glasses_mesh import GlassesMesh, mean_head_glasses
 from aamcore.pose.errors import PoseError
@@ -51,6 +54,7 @@ from services.bus.process import init_process
 from services.bus.session import Service
 from services.rerun_logger.blueprint import build_blueprint
 from services.rerun_logger.dispatch import StreamLogger
+from services.rerun_logger.files import part_path
 from services.rerun_logger.options import RerunOptions
 from services.rerun_logger.recording import Recording, open_recording
 
@@ -60,6 +64,9 @@ IMAGE_BACKLOG = 2
 """Frames (and overlays) kept waiting; older ones are dropped."""
 RESULT_BACKLOG = 256
 """Boxes, fits, poses, expressions and statuses kept waiting."""
+CHECK_S = 30.0
+"""Seconds between two looks at whether the file is still written (a full disk): each
+flushes Rerun's batches once (:mod:`services.rerun_logger.recording`)."""
 
 _log = logging.getLogger(f"aamtrack.{NAME}")
 
@@ -86,12 +93,6 @@ def load_glasses(enabled: bool = True) -> GlassesMesh | None:
         return None
 
 
-def part_path(rrd: str, restarts: int) -> Path:
-    """Where a service restarted ``restarts`` times writes: never over an earlier part."""
-    path = Path(rrd)
-    return path if restarts == 0 else path.with_name(f"{path.stem}.part{restarts}{path.suffix}")
-
-
 def inputs(svc: Service) -> dict[str, tuple[str, int]]:
     """What the logger shows, results before images: ``{kind or key: (kind, capacity)}``."""
     wanted = {kind: (kind, RESULT_BACKLOG) for kind in ("eos", *RESULTS)}
@@ -100,12 +101,19 @@ def inputs(svc: Service) -> dict[str, tuple[str, int]]:
     return wanted
 
 
-def log_stream(svc: Service, logger: StreamLogger, opts: RerunOptions) -> None:
-    """Log until stopped, or until the stream ended and went quiet (see the module notes)."""
+def log_stream(svc: Service, logger: StreamLogger, opts: RerunOptions,
+               recording: Recording | None = None) -> str:
+    """Log until stopped, or until the stream ended and went quiet (see the module notes);
+    ``""``, or why the file could not be written (looked at every :data:`CHECK_S`)."""
     ended_at: float | None = None
-    last_at = time.monotonic()
+    last_at = checked_at = time.monotonic()
     for got in svc.messages_of(inputs(svc), tick=0.05):
         now = time.monotonic()
+        if recording is not None and recording.rrd_path is not None and (
+                now - checked_at >= CHECK_S):
+            checked_at = now
+            if problem := recording.file_problem(recording.flush()):
+                return problem
         if got is not None:
             logged = False
             with svc.answering(f"{got.message.KIND} {got.message.header.frame_index}"):
@@ -122,7 +130,8 @@ def log_stream(svc: Service, logger: StreamLogger, opts: RerunOptions) -> None:
                 svc.set_state("stopping", "end of stream")
                 _log.info("end of stream; logging the last results")
         if ended_at is not None and (now - last_at >= opts.idle or now - ended_at >= opts.grace):
-            return
+            return ""
+    return ""
 
 
 def serve_after_end(svc: Service, recording: Recording, linger: float | None) -> None:
@@ -173,11 +182,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             recording = open_recording(rrd, opts.serve, build_blueprint(),
                                        recording_id=args.bus.run_id or None,
-                                       viewer_url=opts.viewer, footer=False)
-        except (ValueError, OSError, RuntimeError) as exc:
+                                       viewer_url=opts.viewer)
+        except (OSError, RuntimeError) as exc:  # the file's first bytes (a full disk)
+            svc.set_state("failed", f"{rrd}: cannot be written ({exc})")
+            return 0  # said by the launcher; a restart would not help
+        except ValueError as exc:
             _log.error("cannot open the recording: %s", exc)
             svc.set_state("failed", f"cannot open the recording: {exc}")
             return 2
+        problem = ""
         try:
             logger = StreamLogger(recording.stream, load_head_model(opts.head_model),
                                   opts.jpeg_quality, load_glasses(opts.glasses))
@@ -186,13 +199,15 @@ def main(argv: Sequence[str] | None = None) -> int:
             except OptionError as exc:
                 print(f"aamtrack service rerun: error: {exc}", file=sys.stderr)
                 return 2
-            log_stream(svc, logger, opts)
+            problem = log_stream(svc, logger, opts, recording)
             _log.info("logged %s", logger.counts)
-            if recording.serve_uri is not None and not svc.stopping:
+            if recording.serve_uri is not None and not svc.stopping and not problem:
                 serve_after_end(svc, recording, opts.linger)
         finally:
-            recording.close()
-    if recording.rrd_path is not None:
+            problem = problem or recording.file_problem(recording.close())
+            if problem:  # a full disk: said once, by the launcher; no restart would help
+                svc.set_state("failed", f"{problem}; what was written before is kept")
+    if recording.rrd_path is not None and not problem:
         _log.info("recording written to %s", recording.rrd_path)
     return 0
 

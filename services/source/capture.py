@@ -17,7 +17,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from aamcore.io.video import frame_rate
+from aamcore.io.video import ended_early, ended_early_problem, frame_rate
 from proto.limits import MAX_IMAGE_HEIGHT, MAX_IMAGE_PIXELS, MAX_IMAGE_WIDTH
 from services.source.options import URL_PREFIXES, SourceOptions
 
@@ -124,9 +124,15 @@ class VideoInput:
             raise SourceError(f"{spec.describe()}: {problem}")
         self.fps = frame_rate(self._cap)
         self.read_errors = 0
+        self.stated = max(int(self._cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0), 0)
+        """The frames a file's container states (0 for a camera or a stream)."""
+        self.damaged = ""
+        """Why a file's frames ended early (:func:`~aamcore.io.video.ended_early`): one
+        line naming it and the last frame read, once :meth:`frames` has stopped there."""
 
     def frames(self, in_place: bool = False) -> Iterator[np.ndarray]:
-        """Frames in order, every pass of a file; stops at the end or on a read error.
+        """Frames in order, every pass of a file; stops at the end or on a read error, and
+        at the end of a pass of a file that ended early (:attr:`damaged` says so).
 
         ``in_place``: each frame is decoded into the same buffer (:func:`pixel_buffer`),
         valid until the next is asked for: what a producer that sends it at once needs.
@@ -135,7 +141,9 @@ class VideoInput:
         buffer = pixel_buffer((self.height, self.width, 3)) if in_place else None
         while True:
             frame = self._take_first() if played == 0 else None
+            read = 0
             if frame is not None:
+                read += 1
                 if buffer is not None and frame.shape == buffer.shape:
                     buffer[...] = frame
                     frame = buffer
@@ -144,7 +152,11 @@ class VideoInput:
                 ok, frame = self._cap.read(buffer) if buffer is not None else self._cap.read()
                 if not ok or frame is None:
                     break
+                read += 1
                 yield frame
+            if self.spec.is_file and ended_early(read, self.stated):
+                self.damaged = ended_early_problem(self.spec.video, read, self.stated)
+                return
             played += 1
             if self.loops != 0 and played >= self.loops:
                 return

@@ -10,7 +10,10 @@ answers, with at most ``--window`` frames in flight
 (:class:`~services.source.pacing.CreditWindow`, :mod:`services.source.answers`). At the
 end the source publishes ``EndOfStream`` (sent so that it must arrive) with the number of
 frames it published and why it stopped, and exits: 0 at the end of the input
-or on a stop, 1 when the input failed.
+or on a stop, 1 when the input failed. A file that ends before the frames its
+container states (cut short or damaged) ends like any other, every frame read
+published, with an end of stream whose reason is an error naming the file and
+its last frame.
 """
 
 from __future__ import annotations
@@ -136,7 +139,9 @@ def publish_frames(svc: Service, video: VideoInput, opts: SourceOptions) -> tupl
         count += 1
         if opts.max_frames and count >= opts.max_frames:
             break
-    return count, "stopped" if svc.stopping else "end_of_file"
+    if svc.stopping:
+        return count, "stopped"
+    return count, f"error: {video.damaged}" if video.damaged else "end_of_file"
 
 
 def publish_eos(svc: Service, count: int, reason: str) -> None:

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import socket
 import sys
 import time
@@ -53,6 +54,7 @@ from services.bus.args import service_argv
 from services.bus.connection import BusOptions
 from services.bus.handover import HandoverError
 from services.bus.options import OptionError
+from services.bus.process import ENV_LOG_LEVEL
 from services.bus.runtime import (
     in_use,
     remove_socket,
@@ -66,7 +68,13 @@ from services.stack.drain import EndOfRun
 from services.stack.hosts import deployment_keys, never_joined, not_joined, secure_launcher
 from services.stack.monitor import StackMonitor, summary_table
 from services.stack.options import StackOptions
-from services.stack.outcome import EXIT_INPUT, exit_code
+from services.stack.outcome import (
+    EXIT_FAILED,
+    EXIT_INPUT,
+    exit_code,
+    output_problem,
+    say_unwritten,
+)
 from services.stack.progress import run_progress
 from services.stack.recorder import RecordWriter
 from services.stack.registry import SERVICES
@@ -188,8 +196,8 @@ def wait_for_end(svc: Service, sup: Supervisor, mon: StackMonitor, opts: StackOp
         if mon.eos is not None:
             if not said_eos:
                 said_eos = True
-                log.info("end of stream after %d frames (%s)", mon.eos.total_frames,
-                         mon.eos.reason)
+                log.debug("end of stream after %d frames (%s)", mon.eos.total_frames,
+                          mon.eos.reason)
             if mon.end.over():
                 return "done"
         elif ("source" in opts.services and sup.exitcode("source") is not None
@@ -197,7 +205,10 @@ def wait_for_end(svc: Service, sup: Supervisor, mon: StackMonitor, opts: StackOp
             return "source failed"  # it ended and, a second later, no end of stream came
         if sup.failed():
             return f"{', '.join(sup.failed())} could not be kept running"
+        if problem := output_problem(mon):
+            return problem
     return "stopped"
+
 
 
 def serve_until_stopped(svc: Service, sup: Supervisor, port: int) -> str:
@@ -254,13 +265,18 @@ class Stack:
         self.fingerprint = self.keyring.fingerprint
         """The fingerprint of the launcher's public key: readers trust the run by it."""
         self.specs = service_specs(opts, service_bus, self.keyring)
-        self.recorder = (RecordWriter(opts.launch.record, self.keys_document())
-                         if opts.launch.record else None)
+        try:
+            self.recorder = (RecordWriter(opts.launch.record, self.keys_document())
+                             if opts.launch.record else None)
+        except OSError as exc:  # a device already full: known before anything starts
+            raise preflight.PreflightError(
+                f"--record {opts.launch.record}: cannot be written ({exc.strerror})") from None
         self.service = Service(NAME, own_bus, keyring=self.keyring.for_service(NAME))
         self.monitor = StackMonitor(self.service, self.recorder, opts.launch.record_images,
                                     EndOfRun(opts.launch.drain_quiet, opts.launch.drain_max),
                                     expected=list(opts.services))
-        self.supervisor = Supervisor(self.specs, env=SERVICE_ENV,
+        quiet = {} if opts.verbose else {ENV_LOG_LEVEL: os.environ.get(ENV_LOG_LEVEL, "WARNING")}
+        self.supervisor = Supervisor(self.specs, env=SERVICE_ENV | quiet,
                                      floors=self.monitor.restarting,
                                      insecure=opts.launch.insecure)
         self.exit_codes: dict[str, int | None] = {}
@@ -310,6 +326,7 @@ class Stack:
         try:
             self.exit_codes = self.supervisor.stop()
             self.monitor.wait_for_final_statuses([s.name for s in self.specs], FINAL_STATUS_WAIT)
+            self.finish_recordings()
         finally:
             self.service.close()
             if self.recorder is not None:
@@ -318,6 +335,25 @@ class Stack:
                 for name in [s.name for s in self.specs]:
                     remove_socket(service_listen(self.endpoint, self.run_id, name))
                 remove_socket(self.endpoint)
+
+    def finish_recordings(self) -> None:
+        """Give its footer to every part of the ``.rrd`` whose Rerun logger did not close it
+        (killed: no last status "stopped", which a logger sends once its file is closed;
+        :mod:`services.rerun_logger.files`); each is said in the summary's events."""
+        rerun = self.opts.services.get("rerun")
+        if getattr(rerun, "rrd", None) is None or "rerun" not in self.exit_codes:
+            return
+        from services.rerun_logger.files import finish, unfinished_parts
+
+        closed = {k for (name, k), status in self.monitor.incarnations.items()
+                  if name == "rerun" and status.state == "stopped"}
+        for path in unfinished_parts(rerun.rrd, self.supervisor.restarts("rerun"), closed):
+            why = finish(path)
+            self.supervisor.events.append(
+                f"{path}: its logger did not close it; finished with its footer" if not why else
+                f"{path}: its logger did not close it, and its footer could not be written "
+                f"({why})")
+            log.info("%s", self.supervisor.events[-1])
 
     def summary(self) -> dict[str, Any]:
         """The run's summary: the monitor's counts, outcome, exit codes and events."""
@@ -358,7 +394,7 @@ def run_stack(opts: StackOptions) -> int:
     try:
         return _run_stack(opts)
     except KeyboardInterrupt:  # before the launcher's own stop handling was in place
-        _say_unwritten(opts)
+        say_unwritten(opts)
         raise
 
 
@@ -376,21 +412,18 @@ def _run_stack(opts: StackOptions) -> int:
         return EXIT_INPUT
     summary = stack.summary()
     print(summary_table(summary))
+    unsaved = ""
     if opts.launch.summary:
-        Path(opts.launch.summary).write_text(json.dumps(summary, indent=2))
-        Path(f"{opts.launch.summary}.trust").write_text(f"{stack.fingerprint}\n")
-    _say_unwritten(opts)
-    return exit_code(stack.outcome, summary)
-
-
-def _say_unwritten(opts: StackOptions) -> None:
-    for path in unwritten(opts):
-        print(f"aamtrack run: no recording {path}: stopped before it was started",
-              file=sys.stderr)
-
-
-def unwritten(opts: StackOptions) -> list[str]:
-    """The recording files the run was asked for that do not exist (stopped early)."""
-    rerun = opts.services.get("rerun")
-    asked = [opts.launch.record, rerun.rrd if rerun is not None else None]
-    return [p for p in asked if p and not Path(p).exists()]
+        try:
+            Path(opts.launch.summary).write_text(json.dumps(summary, indent=2))
+            Path(f"{opts.launch.summary}.trust").write_text(f"{stack.fingerprint}\n")
+        except OSError as exc:  # no half-written JSON left behind
+            Path(opts.launch.summary).unlink(missing_ok=True)
+            unsaved = f"--summary {opts.launch.summary}: cannot be written ({exc.strerror})"
+    say_unwritten(opts)
+    if stack.outcome == "done" and (problem := output_problem(stack.monitor)):
+        stack.outcome = problem  # found as the run ended (the logger's file at its close)
+    code = exit_code(stack.outcome, summary)
+    if unsaved:
+        print(f"aamtrack run: error: {unsaved}", file=sys.stderr)
+    return code or (EXIT_FAILED if unsaved else 0)

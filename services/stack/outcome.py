@@ -3,7 +3,12 @@
 from __future__ import annotations
 
 import sys
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from services.stack.monitor import StackMonitor
+    from services.stack.options import StackOptions
 
 EXIT_OK, EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -42,3 +47,29 @@ def exit_code(outcome: str, summary: dict[str, Any]) -> int:
     why = reason.removeprefix("error: ") if reason.startswith("error") else outcome
     print(f"aamtrack run: error: {why}", file=sys.stderr)
     return EXIT_FAILED
+
+
+def output_problem(mon: StackMonitor) -> str:
+    """Why a file the run writes can no longer be written (a full disk), or ``""``: the
+    launcher's recording, or the Rerun logger's (its last status says)."""
+    if mon.recorder is not None and mon.recorder.error:
+        return f"--record {mon.recorder.error}; the messages before are kept"
+    rerun = mon.statuses.get("rerun")
+    if rerun is not None and rerun.state == "failed" and "cannot be written" in rerun.message:
+        return f"--rrd {rerun.message}"
+    return ""
+
+
+def say_unwritten(opts: StackOptions) -> None:
+    """One line for each recording the run was asked for that does not exist (stopped
+    before it was started)."""
+    for path in unwritten(opts):
+        print(f"aamtrack run: no recording {path}: stopped before it was started",
+              file=sys.stderr)
+
+
+def unwritten(opts: StackOptions) -> list[str]:
+    """The recording files the run was asked for that do not exist (stopped early)."""
+    rerun = opts.services.get("rerun")
+    asked = [opts.launch.record, rerun.rrd if rerun is not None else None]
+    return [p for p in asked if p and not Path(p).exists()]

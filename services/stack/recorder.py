@@ -65,6 +65,11 @@ class RecordWriter:
     keys : bytes
         The run's keys document (:func:`proto.auth.keys_document`; empty: a run without
         keys), its first record.
+
+    Raises
+    ------
+    OSError
+        When the file cannot be created or its first bytes written.
     """
 
     def __init__(self, path: str | Path, keys: bytes = b"") -> None:
@@ -72,7 +77,10 @@ class RecordWriter:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.count = 0
         self.late = 0
-        """Messages that came after :meth:`close`, left out."""
+        """Messages that came after :meth:`close`, or after the file failed, left out."""
+        self.error = ""
+        """Why the file could no longer be written (a full disk), once it could not; every
+        complete record before stays readable (:func:`read_recording`)."""
         self._lock = threading.Lock()
         self._file: BinaryIO | None = open(self.path, "wb")  # noqa: SIM115 (closed in close())
         self._file.write(MAGIC + _LENGTH.pack(len(keys)) + keys)
@@ -81,32 +89,53 @@ class RecordWriter:
 
     def write(self, payload: bytes) -> None:
         """Append one encoded message (flushed within :data:`FLUSH_PERIOD`); after
-        :meth:`close` (messages still arriving while the run stops) it is left out."""
+        :meth:`close` (messages still arriving while the run stops) or a failed write it
+        is left out."""
         with self._lock:
             if self._file is None:
                 self.late += 1
                 return
-            self._file.write(_LENGTH.pack(len(payload)) + payload)
-            self.count += 1
-            if time.monotonic() - self._flushed >= FLUSH_PERIOD:
-                self._flush()
+            try:
+                self._file.write(_LENGTH.pack(len(payload)) + payload)
+                self.count += 1
+                if time.monotonic() - self._flushed >= FLUSH_PERIOD:
+                    self._flush()
+            except OSError as exc:
+                self._fail(exc)
 
     def flush(self) -> None:
         """Write everything so far to the file."""
         with self._lock:
             if self._file is not None:
-                self._flush()
+                try:
+                    self._flush()
+                except OSError as exc:
+                    self._fail(exc)
 
     def _flush(self) -> None:
         assert self._file is not None
         self._file.flush()
         self._flushed = time.monotonic()
 
+    def _fail(self, exc: OSError) -> None:
+        """Stop writing after a failed write; what reached the file stays."""
+        self.error = f"{self.path}: cannot be written ({exc.strerror or exc})"
+        log.debug("%s", self.error)
+        file, self._file = self._file, None
+        try:
+            if file is not None:
+                file.close()
+        except OSError:
+            pass  # the buffer that could not be written is lost with the device's space
+
     def close(self) -> None:
         """Flush and close the file. Idempotent."""
         with self._lock:
             if self._file is not None:
-                self._file.close()
+                try:
+                    self._file.close()
+                except OSError as exc:
+                    self._fail(exc)
                 self._file = None
 
     def __enter__(self) -> RecordWriter:

@@ -13,6 +13,7 @@ import cv2
 import numpy as np
 import pytest
 
+from aamcore.results import EXPRESSION_REASONS, REASONS, explained
 from proto import Fit
 from services.stack.launcher import Stack
 from services.stack.options import StackOptions
@@ -115,6 +116,10 @@ def test_track_writes_the_rows_of_a_video_and_says_when_it_is_cut_short(
     # expressions: a label or the reason there is none on every row
     assert all(bool(r["expression"]) != bool(r["expression_reason"]) for r in rows)
     assert sum(bool(r["expression"]) for r in rows) >= GOOD_SHARE * FRAMES
+    # every reason given is one the README and the help explain
+    assert all(explained(r["expression_reason"], EXPRESSION_REASONS)
+               for r in rows if r["expression_reason"])
+    assert all(explained(r["reason"], REASONS) for r in rows if r["reason"])
     avi = tmp_path / "clip.avi"
     capture = cv2.VideoCapture(str(single_face))
     writer = cv2.VideoWriter(str(avi), cv2.VideoWriter_fourcc(*"MJPG"), 30, (640, 360))

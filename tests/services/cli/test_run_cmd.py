@@ -11,6 +11,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from services.stack.recorder import read_recording
+from tests.videos import decoded_frames, faststart
+
 
 def test_service_command_runs_one_service(
     run_cli: Callable[..., subprocess.CompletedProcess[str]],
@@ -86,3 +89,62 @@ def test_every_option_error_exits_2_at_start_with_one_line(
             lines = [line for line in done.stderr.splitlines() if line.strip()]
             assert len(lines) == 1 and expected in lines[0], (argv, done.stderr)
             assert "Traceback" not in done.stdout + done.stderr
+
+
+def test_a_video_cut_short_fails_run_and_track_with_one_line_naming_its_last_frame(
+    run_cli: Callable[..., subprocess.CompletedProcess[str]], single_face: Path,
+    model_path: Path, classifier_path: Path, tmp_path: Path,
+) -> None:
+    whole = faststart(single_face.read_bytes())  # its index at the front: all 72 frames stated
+    cut = tmp_path / "cut.mp4"
+    cut.write_bytes(whole[: len(whole) // 2])
+    read = decoded_frames(cut)
+    assert 10 < read < 72
+    line = (f"{cut}: the video ended after frame {read - 1} ({read} of its 72 frames: cut "
+            "short or damaged?)")
+    models = ["--model", str(model_path), "--classifier", str(classifier_path)]
+    summary = tmp_path / "summary.json"
+    done = run_cli("run", "--video", str(cut), "--pace", "fast", "--no-ar", *models,
+                   "--summary", str(summary), timeout=180)
+    assert done.returncode == 1, done.stdout + done.stderr
+    # The frames before the cut are processed and counted; one line says what happened.
+    facts = json.loads(summary.read_text())
+    assert facts["total_frames"] == read and facts["frames_with"]["fit"] <= read
+    assert facts["unanswered"] == {"fit": 0, "pose": 0}
+    problems = [x for x in done.stderr.splitlines()
+                if any(w in x for w in ("error", "ERROR", "WARN", "Traceback"))]
+    assert problems == [f"aamtrack run: error: {line}"], done.stderr
+    out = tmp_path / "cut.csv"
+    done = run_cli("track", str(cut), "--csv", str(out), *models)
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert done.stderr.splitlines()[-1] == (f"aamtrack track: error: {line}; the rows of the "
+                                            "frames before are written")
+    assert len(out.read_text().splitlines()) == read + 1
+
+
+def test_a_full_disk_ends_the_run_with_one_line_naming_the_file(
+    run_cli: Callable[..., subprocess.CompletedProcess[str]], single_face: Path,
+    model_path: Path, classifier_path: Path, tmp_path: Path,
+) -> None:
+    # A file name that is /dev/full takes the file and fails every write with "No space left
+    # on device": a full disk for one file of the run, the others on a disk with room.
+    full = tmp_path / "full.rec"
+    full.symlink_to("/dev/full")
+    models = ["--model", str(model_path), "--classifier", str(classifier_path), "--no-ar"]
+    video = ["--video", str(single_face), "--pace", "fast", "--max-frames", "12"]
+    done = run_cli("run", *video, *models, "--record", str(full), timeout=180)
+    assert done.returncode == 2, done.stdout + done.stderr  # its first bytes fail: no start
+    assert done.stderr.splitlines()[-1] == (
+        f"aamtrack run: error: --record {full}: cannot be written (No space left on device)")
+    full.unlink()
+    full = tmp_path / "full.rrd"
+    full.symlink_to("/dev/full")
+    rec = tmp_path / "run.rec"
+    done = run_cli("run", *video, *models, "--rrd", str(full), "--record", str(rec),
+                   timeout=180)
+    assert done.returncode == 1, done.stdout + done.stderr
+    ours = [x for x in done.stderr.splitlines() if x.startswith("aamtrack run:")]
+    assert len(ours) == 1 and ours[0].startswith(
+        f"aamtrack run: error: --rrd {full}: cannot be written ("), ours
+    assert "Traceback" not in done.stderr and "restarting rerun" not in done.stderr
+    assert len(read_recording(rec).messages) > 12  # the other file is whole

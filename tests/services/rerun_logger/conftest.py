@@ -123,9 +123,8 @@ def read_rrd(path: Path) -> RrdContent:
 
 def verify_rrd(path: Path) -> str:
     """Run ``rerun rrd verify`` on ``path``; fail the test unless it passes."""
-    done = subprocess.run(
-        [str(RERUN_CLI), "rrd", "verify", "--check-footers", "false", str(path)],
-        capture_output=True, text=True, timeout=60)  # the service's files have no footer
+    done = subprocess.run([str(RERUN_CLI), "rrd", "verify", str(path)],
+                          capture_output=True, text=True, timeout=60)  # footers checked too
     assert done.returncode == 0, f"rerun rrd verify failed:\n{done.stdout}\n{done.stderr}"
     return done.stdout + done.stderr
 

@@ -18,7 +18,6 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-import cv2
 import msgpack
 import numpy as np
 import pytest
@@ -36,6 +35,7 @@ from services.stack.options import StackOptions
 from services.stack.outcome import EXIT_FAILED, exit_code, unanswered_problem
 from services.stack.recorder import load_messages, read_recording
 from tests.expectations import FRAMES, GOOD_SHARE, check_poses
+from tests.videos import decoded_frames
 
 RERUN_CLI = Path(sys.executable).with_name("rerun")
 
@@ -45,16 +45,6 @@ def run_stack(opts: StackOptions) -> tuple[Stack, dict]:
         outcome = stack.wait()
     assert outcome == "done", stack.summary()
     return stack, stack.summary()
-
-
-def decoded_frames(video: Path) -> int:
-    """Frames OpenCV decodes from ``video`` (container counts can be off)."""
-    cap = cv2.VideoCapture(str(video))
-    n = 0
-    while cap.read()[0]:
-        n += 1
-    cap.release()
-    return n
 
 
 def by_frame(messages: list, kind: str) -> dict[int, object]:
@@ -127,8 +117,8 @@ def test_single_face_gpu_warp_every_frame_gets_its_results(
     for name, s in summary["services"].items():
         assert s["state"] == "stopped" and s["rejected"] == 0 and s["lost"] == 0, (name, s)
     assert summary["services"]["fitter"]["dropped"] == 0  # fast pacing waits for each fit
-    done = subprocess.run([str(RERUN_CLI), "rrd", "verify", "--check-footers", "false",
-                           str(rrd)], capture_output=True, text=True, timeout=60)
+    done = subprocess.run([str(RERUN_CLI), "rrd", "verify", str(rrd)], capture_output=True,
+                          text=True, timeout=60)
     assert done.returncode == 0, done.stdout + done.stderr
     entities = rrd_entities(rrd)
     for entity in ("/world/camera/video", "/world/camera/landmarks", "/world/head", "/overlay"):
@@ -288,6 +278,39 @@ def test_killing_a_service_leaves_the_others_running_and_it_comes_back(
     assert exit_code("done", summary) == EXIT_FAILED
     for name in ("detector", "fitter", "expression", "source"):
         assert summary["services"][name]["restarts"] == 0
+
+
+def test_every_rrd_part_verifies_after_a_killed_logger_and_a_stop(
+    single_face: Path, stack_options: Callable[..., StackOptions], tmp_path: Path
+) -> None:
+    rrd = tmp_path / "run.rrd"
+    opts = stack_options(single_face, ar=False, pace="realtime", loop=0, rrd=str(rrd))
+    with Stack(opts) as stack:
+        wait_for(lambda: stack.monitor.counts["pose"] >= 5, "the stack produced no poses")
+        pid = stack.supervisor.pid("rerun")
+        assert pid is not None
+        os.kill(pid, signal.SIGKILL)
+
+        def restarted() -> bool:
+            stack.supervisor.check()  # what the launcher's watch does: restarts the logger
+            return ("rerun", 1) in stack.monitor.incarnations
+
+        wait_for(restarted, "no restarted logger")
+        wait_for(lambda: stack.monitor.incarnations[("rerun", 1)].frames_in >= 20,
+                 "the restarted logger logged nothing")
+        stack.service.request_stop("as a Ctrl-C does")
+        assert stack.wait() == "stopped"
+    # The killed logger's part was finished by the launcher, the restarted logger's closed
+    # with its footer at the stop: both pass Rerun's checks with their default flags.
+    part = tmp_path / "run.part1.rrd"
+    finished = f"{rrd}: its logger did not close it; finished with its footer"
+    assert finished in stack.supervisor.events
+    for path in (rrd, part):
+        done = subprocess.run([str(RERUN_CLI), "rrd", "verify", str(path)],
+                              capture_output=True, text=True, timeout=60)
+        assert done.returncode == 0, done.stdout + done.stderr
+    assert "/world/camera/landmarks" in rrd_entities(part)
+    assert not list(tmp_path.glob("*.backup.rrd"))
 
 
 def _children(pid: int) -> list[int]:
