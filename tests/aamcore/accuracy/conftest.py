@@ -13,12 +13,12 @@ from tests.aamcore.accuracy.held_out import slice_of
 
 
 @pytest.fixture(scope="session")
-def test_model(model_path: Path) -> FittingModel:
+def small_model(model_path: Path) -> FittingModel:
     return FittingModel.load(model_path)
 
 
 @pytest.fixture(scope="session")
-def held_out_slice(data_dir: Path, test_model: FittingModel) -> list[FaceSample]:
+def held_out_slice(data_dir: Path, small_model: FittingModel) -> list[FaceSample]:
     """:data:`~tests.aamcore.accuracy.held_out.PER_SET` held-out faces of each of LFPW, HELEN
     and AFW."""
-    return slice_of(data_dir, test_model.aam)
+    return slice_of(data_dir, small_model.aam)

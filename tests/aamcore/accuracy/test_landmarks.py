@@ -40,20 +40,25 @@ class Scored:
     sets: np.ndarray
 
 
-@pytest.fixture(scope="module")
-def scored(test_model: FittingModel, held_out_slice: list[FaceSample]) -> Scored:
-    fitter, detector = Fitter(test_model), HaarFaceDetector()
+def score(small_model: FittingModel, held_out_slice: list[FaceSample]) -> Scored:
+    """Each face fitted from its Haar box, and the box's mean shape, against the truth."""
+    fitter, detector = Fitter(small_model), HaarFaceDetector()
     fitted, baseline, detected, sets = [], [], [], []
     for face in held_out_slice:
         image = face.load_image()
         box = haar_box(detector, image, face.points)
-        start = (test_model.mapping.place(box, "detector") if box is not None
-                 else test_model.mapping.place(landmark_box(face.points), "landmarks"))
+        start = (small_model.mapping.place(box, "detector") if box is not None
+                 else small_model.mapping.place(landmark_box(face.points), "landmarks"))
         fitted.append(nme_of(fitter.fit_shape(image, start).points, face.points))
         baseline.append(nme_of(start, face.points))
         detected.append(box is not None)
         sets.append(set_name_of(face.image_path.parent))
     return Scored(*(np.array(v) for v in (fitted, baseline, detected, sets)))
+
+
+@pytest.fixture(scope="module")
+def scored(small_model: FittingModel, held_out_slice: list[FaceSample]) -> Scored:
+    return score(small_model, held_out_slice)
 
 
 def test_the_fits_land_far_closer_to_the_truth_than_the_mean_shape_in_the_box(

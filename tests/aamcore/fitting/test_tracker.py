@@ -20,23 +20,17 @@ from aamcore.io.video import video_frames
 from aamcore.model.similarity import Similarity
 from aamcore.synth.deform import ExpressionSpec, expression_shapes
 from aamcore.synth.motion import MotionSpec, Sequence, generate
-from tests.aamcore.truth import clip, held_out_photo, right, wrong_but_good
+from tests.aamcore.truth import held_out_photo, right, wrong_but_good
 
 
 @pytest.fixture(scope="module")
-def moving(lfpw_dir: Path) -> Sequence:
-    """A held-out face moving slowly over 40 frames, with its exact landmarks."""
-    return clip(lfpw_dir)
+def faces(moving_face: Sequence) -> list[np.ndarray]:
+    return moving_face.frames
 
 
 @pytest.fixture(scope="module")
-def faces(moving: Sequence) -> list[np.ndarray]:
-    return moving.frames
-
-
-@pytest.fixture(scope="module")
-def truth(moving: Sequence) -> np.ndarray:
-    return moving.landmarks
+def truth(moving_face: Sequence) -> np.ndarray:
+    return moving_face.landmarks
 
 
 @pytest.fixture(scope="module")
