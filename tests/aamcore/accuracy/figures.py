@@ -48,10 +48,13 @@ class Recorded:
             f"{measured:.4f} in {where}")
 
 
-HELD_OUT_NME = Recorded("mean NME of the held-out slice from the Haar box", 0.0588, 0.01)
-OCCLUDED_FLAGGED = Recorded("share of the covered landmarks flagged", 0.6517, 0.05,
+# Measured with the test model of cascade seed 0 and of seed 2 (in brackets): 0.0588 (0.0592),
+# 0.652 (0.659), 0.034 (0.037), 0.429 (0.413). The tolerances are three to six times those
+# spreads.
+HELD_OUT_NME = Recorded("mean NME of the held-out slice from the Haar box", 0.0588, 0.003)
+OCCLUDED_FLAGGED = Recorded("share of the covered landmarks flagged", 0.6517, 0.04,
                             lower_is_better=False)
 VISIBLE_FLAGGED = Recorded("share of the visible landmarks flagged beside an occluder", 0.0335,
-                           0.03)
+                           0.015)
 HELD_OUT_EXPRESSIONS = Recorded("share of the held-out people's faces labelled right", 0.4286,
-                                0.08, lower_is_better=False)
+                                0.06, lower_is_better=False)
