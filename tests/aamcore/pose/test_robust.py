@@ -3,8 +3,6 @@ down-weights outliers and never calls bad input reliable."""
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -158,11 +156,12 @@ def test_another_head_model_gets_its_own_outline() -> None:
     assert rotation_angle_deg(est.estimate(uv, CAM).R, rotation_from_rpy(0, 0, 30)) < 1e-3
 
 
-def test_estimate_is_fast(contour: ContourPose) -> None:
+def test_estimate_converges_in_a_few_iterations(contour: ContourPose) -> None:
+    """Its cost counted in the work done, not read off a shared machine's clock (the time per
+    estimate is ``bench/bench_pose_yaw.py``'s): on noisy landmarks of a head turned by 45
+    degrees the outline matching settles within half its iterations."""
     uv = seen(contour, (5.0, 10.0, 45.0), np.array([0, 0, 650.0]))
     uv += np.random.default_rng(1).normal(0.0, 1.5, uv.shape)
-    contour.estimate(uv, CAM)
-    start = time.perf_counter()
-    for _ in range(20):
-        contour.estimate(uv, CAM)
-    assert (time.perf_counter() - start) / 20 < 0.02  # generous: shared machines
+    est = contour.estimate(uv, CAM)
+    assert est.converged and est.iterations <= contour.max_iterations // 2, est.iterations
+    assert rotation_angle_deg(est.R, rotation_from_rpy(5.0, 10.0, 45.0)) < 3.0
