@@ -24,6 +24,8 @@ from aamcore.io.expression_sets import load_expression_set
 from aamcore.io.sample import DatasetError
 from tests.aamcore.accuracy.figures import HELD_OUT_EXPRESSIONS
 
+pytestmark = pytest.mark.accuracy
+
 PER_CLASS = {"taiwan_expressions": 12, "lfw_expressions": 8}
 """Held-out faces of each class of each set in the slice (evenly spread over the class's;
 LFW has fewer of some classes: all of them)."""

@@ -26,6 +26,8 @@ from tests.aamcore.accuracy.figures import HELD_OUT_NME
 from tests.aamcore.accuracy.held_out import FOLDERS
 from tests.aamcore.truth import nme as nme_of
 
+pytestmark = pytest.mark.accuracy
+
 BASELINE_RATIO = 0.6
 """The most the model's mean NME may be of the baseline's."""
 

@@ -25,6 +25,8 @@ from aamcore.fitting.occluders import DRAWN, covered_shares, draw_occluder
 from aamcore.io import FaceSample
 from tests.aamcore.accuracy.figures import OCCLUDED_FLAGGED, VISIBLE_FLAGGED
 
+pytestmark = pytest.mark.accuracy
+
 COVERED, VISIBLE = 0.5, 0.0
 """A landmark is covered at or above this share of its part of the face, visible at none."""
 

@@ -23,6 +23,8 @@ from aamcore.synth.motion import Sequence
 from tests.aamcore.accuracy.figures import TRACKED_NME
 from tests.aamcore.truth import RIGHT, SLOW, clip, nme
 
+pytestmark = pytest.mark.accuracy
+
 THESIS_FLOOR = 0.8
 """Least share of the frames the thesis profile fits on the face (the small model: 0.925 and
 0.95 of the two clips)."""
