@@ -41,7 +41,8 @@ class Recorded:
         where = f"{__name__.replace('.', '/')}.py"
         assert worse <= self.tolerance, (
             f"{self.name}: {measured:.4f}, worse than the recorded {self.value:.4f} by more "
-            f"than its tolerance {self.tolerance:.4f}")
+            f"than its tolerance {self.tolerance:.4f} (only if the change means it, as a trade "
+            f"stated in its commit: record {measured:.4f} in {where})")
         assert worse >= -self.tolerance, (
             f"{self.name}: {measured:.4f}, better than the recorded {self.value:.4f} by more "
             f"than its tolerance {self.tolerance:.4f}: if the change meant it, record "
@@ -49,13 +50,13 @@ class Recorded:
 
 
 # Measured with the test model of cascade seed 0 and of seed 2 (in brackets): 0.0588 (0.0592),
-# 0.652 (0.659), 0.034 (0.037), 0.429 (0.413). The tolerances are three to six times those
-# spreads.
-HELD_OUT_NME = Recorded("mean NME of the held-out slice from the Haar box", 0.0588, 0.003)
+# 0.652 (0.659), 0.034 (0.037), 0.429 (0.413), 0.0552 (0.0583). The tolerances are three to ten
+# times those spreads; a model trained with half the cascade's stages measured 0.0632.
+HELD_OUT_NME = Recorded("mean NME of the held-out slice from the Haar box", 0.0588, 0.004)
 OCCLUDED_FLAGGED = Recorded("share of the covered landmarks flagged", 0.6517, 0.04,
                             lower_is_better=False)
 VISIBLE_FLAGGED = Recorded("share of the visible landmarks flagged beside an occluder", 0.0335,
                            0.015)
 HELD_OUT_EXPRESSIONS = Recorded("share of the held-out people's faces labelled right", 0.4286,
                                 0.06, lower_is_better=False)
-TRACKED_NME = Recorded("mean NME of the tracked frames of two held-out faces", 0.0552, 0.004)
+TRACKED_NME = Recorded("mean NME of the tracked frames of two held-out faces", 0.0552, 0.01)
