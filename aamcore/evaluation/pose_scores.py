@@ -134,7 +134,7 @@ def _swept_value(pose: PoseTruth, parameter: str) -> float:
 def _run_sweep(
     estimate: Estimator, sweep: TrackedSweep, marks: Sequence[np.ndarray | None],
     camera: CameraIntrinsics, anchors: np.ndarray, times: list[float],
-    settle: Callable[[], object] | None,
+    settle: Callable[[], object] | None, clock: Callable[[], float] = time.perf_counter,
 ) -> _Frames:
     """Estimate every frame of one sweep; append each estimate's seconds to ``times``."""
     n = len(sweep.poses)
@@ -147,15 +147,15 @@ def _run_sweep(
             out.no_pose += 1
             out.reasons[NO_LANDMARKS] += 1
             continue
-        started = time.perf_counter()
+        started = clock()
         try:
             est = estimate(lm, camera)
         except PoseError as exc:
-            times.append(time.perf_counter() - started)
+            times.append(clock() - started)
             out.no_pose += 1
             out.reasons[reason_key(str(exc))] += 1
             continue
-        times.append(time.perf_counter() - started)
+        times.append(clock() - started)
         if settle is not None:
             settle()
         if not est.reliable:
@@ -175,6 +175,7 @@ def evaluate_estimator(
     anchors: np.ndarray,
     landmarks: Sequence[Sequence[np.ndarray | None]] | None = None,
     settle: Callable[[], object] | None = None,
+    clock: Callable[[], float] = time.perf_counter,
 ) -> tuple[dict[str, SweepResult], dict[str, float]]:
     """Run an estimator on every frame of every sweep, in order, and compare with the truth.
 
@@ -192,6 +193,8 @@ def evaluate_estimator(
     settle : callable, optional
         Called after each estimate, outside its timing (e.g. to wait for a
         background refinement, so that the results do not depend on timing).
+    clock : callable
+        Seconds now, read before and after each estimate (the wall clock by default).
 
     Returns
     -------
@@ -205,7 +208,7 @@ def evaluate_estimator(
     times: list[float] = []
     for k, sweep in enumerate(sweeps):
         marks = landmarks[k] if landmarks is not None else sweep.landmarks
-        part = _run_sweep(estimate, sweep, marks, camera, anchors, times, settle)
+        part = _run_sweep(estimate, sweep, marks, camera, anchors, times, settle, clock)
         results[sweep.spec.name] = part.result(sweep.spec.name)
         parts.append(part)
     total = _Frames(np.vstack([p.errors for p in parts]),

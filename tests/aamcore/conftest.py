@@ -10,6 +10,8 @@ import pytest
 
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.io import AnnotatedSet
+from aamcore.synth.motion import Sequence
+from tests.aamcore.truth import clip
 
 
 @pytest.fixture(scope="module")
@@ -33,3 +35,10 @@ def detector() -> HaarFaceDetector:
 def imm_detections(imm_set: AnnotatedSet, detector: HaarFaceDetector) -> list[np.ndarray]:
     """Haar boxes of every IMM image, computed once (about 3 s)."""
     return [detector.detect(s.load_image()) for s in imm_set.samples]
+
+
+@pytest.fixture(scope="session")
+def moving_face(lfpw_dir) -> Sequence:
+    """A held-out LFPW face moving slowly over 40 frames, with its exact landmarks
+    (:mod:`tests.aamcore.truth`)."""
+    return clip(lfpw_dir)

@@ -12,6 +12,8 @@ import pytest
 
 from aamcore import FaceResult, FaceTracker
 from aamcore.expression import AAMMismatchError, ExpressionClassifier
+from aamcore.synth.motion import Sequence
+from tests.aamcore.truth import right_face
 from tests.expectations import FRAMES, GOOD_SHARE, check_poses
 
 
@@ -130,21 +132,24 @@ def test_the_pose_estimator_can_be_chosen(
         FaceTracker(model=model_path, classifier=False, pose_estimator="eos")
 
 
-def test_bad_frames_mid_stream_give_clear_results(model_path: Path, single_face: Path) -> None:
+def test_bad_frames_mid_stream_give_clear_results(model_path: Path, moving_face: Sequence
+                                                  ) -> None:
+    """On a held-out face moving with its exact landmarks (:mod:`tests.aamcore.truth`): right
+    landmarks, a frame of another size and a black one mid-stream, right again soon after."""
     import cv2
 
-    from aamcore.io.video import video_frames
-
-    frames = video_frames(single_face)
+    frames, truth = moving_face.frames, moving_face.landmarks
     tracker = FaceTracker(model=model_path, classifier=False)
-    assert all(tracker.process(f).success for f in frames[:5])
+    assert all(right_face(tracker.process(f), t) for f, t in zip(frames[:5], truth, strict=False))
     small = tracker.process(cv2.resize(frames[5], (320, 180)))  # another size: detected afresh
     assert small.landmarks.shape in ((0, 2), (68, 2)) and np.all(np.isfinite(small.landmarks))
+    assert not small.success or right_face(small, truth[5] / 2)
     black = tracker.process(np.zeros_like(frames[6]))
     assert not black.success and black.confidence == 0.0 and not black.pose_reliable
     back = [tracker.process(f) for f in frames[7:12]]
-    assert any(r.success for r in back)
-    assert back[-1].success and back[-1].expression is None
+    right = [right_face(r, t) for r, t in zip(back, truth[7:12], strict=True)]
+    assert any(right[:3]) and all(right[right.index(True):])  # found again, and kept
+    assert back[-1].expression is None
 
 
 def test_each_face_of_a_frame_gets_its_own_result_pose_and_expression(

@@ -49,7 +49,9 @@ def test_exact_landmarks_score_zero_and_bad_frames_are_counted(contour: ContourP
     assert bad is not None
     marks[3] = np.full((68, 2), np.nan)
     marks[5] = bad[np.random.default_rng(0).permutation(68)]
-    results, timing = evaluate_estimator(contour.estimate, sweeps, CAM, ANCHORS, [marks])
+    ticks = iter(np.arange(100) * 0.002)  # a clock that moves 2 ms each time it is read
+    results, timing = evaluate_estimator(contour.estimate, sweeps, CAM, ANCHORS, [marks],
+                                         clock=lambda: float(next(ticks)))
     r = results["yaw60"]
     assert (r.frames, r.estimated, r.no_pose, r.unreliable) == (8, 5, 2, 1)
     assert r.reasons["no landmarks"] == 1 and r.reasons["too few landmarks"] == 1
@@ -57,7 +59,8 @@ def test_exact_landmarks_score_zero_and_bad_frames_are_counted(contour: ContourP
     # Yaw 0, 42, 60, 42, 0, -42, -60, -42: the frame at +60 had no landmarks.
     assert r.covered == pytest.approx((-60.0, 60.0 * np.sin(np.pi / 4)))
     assert results["all"].estimated == 5 and timing["calls"] == 7.0
-    assert 0.0 < timing["ms_median"] < 50.0
+    # each estimate timed between two readings of the clock, outside the estimator
+    assert timing["ms_median"] == pytest.approx(2.0) and timing["ms_p99"] == pytest.approx(2.0)
 
 
 def test_a_background_estimator_is_settled_outside_the_timing() -> None:

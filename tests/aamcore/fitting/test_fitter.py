@@ -3,7 +3,6 @@ import pytest
 
 from aamcore.evaluation.metrics import nme
 from aamcore.fitting.algorithm.fixed_jacobian import FixedJacobian
-from aamcore.fitting.failure import QualityTest
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.result import AAMFit, LandmarkFit
 from aamcore.fitting.tracker import Tracker
@@ -14,6 +13,12 @@ from aamcore.model.similarity import Similarity
 
 def _nme(result, sample, scheme) -> float:
     return nme(result.points, sample.points, scheme)
+
+
+def predicts(fit, sample, scheme) -> bool:
+    """Whether a fit's quality score (its predicted log NME) gives its NME against the truth
+    of ``sample`` within a factor 2.5 (measured on the IMM faces: 0.6 to 1.5)."""
+    return 1 / 2.5 < np.exp(fit.score) / nme(fit.points, sample.points, scheme) < 2.5
 
 
 def _true_pose_start(fitter, sample, dx=0.0, dy=0.0):
@@ -129,20 +134,23 @@ def test_failure_tests_and_appearance_of_each_kind_of_method(imm_fit_model, imm_
     bare = Fitter(imm_fit_model, appearance=False)
     assert bare.name == "local-binary" and bare.failure_test == "quality" and not bare.warps
     plain = bare.fit_box(image, box)
-    assert type(plain) is LandmarkFit and math.isfinite(plain.score) and plain.ok
-    assert plain.confidence == pytest.approx(bare.quality.confidence(plain.score))
+    assert type(plain) is LandmarkFit and plain.ok and 0.5 < plain.confidence <= 1
+    assert predicts(plain, imm_test[0], imm_fit_model.aam.scheme)  # the truth's error
     default = Fitter(imm_fit_model)
     assert default.warps
     sampled = default.fit_box(image, box)
     assert isinstance(sampled, AAMFit) and sampled.c.shape == (n,) and sampled.iterations == 0
     assert sampled.residual.shape == (m,) and math.isfinite(sampled.error)
-    assert sampled.error == pytest.approx(float(sampled.residual @ sampled.residual) / m)
+    # the texture error of the face where it is, far below that of the face missed by a
+    # tenth of its width
+    missed = imm_test[0].points + [0.1 * np.ptp(imm_test[0].points[:, 0]), 0.0]
+    assert sampled.error < 0.5 * default.sampler.project_frame(image, missed).error
     assert np.allclose(sampled.points, plain.points) and sampled.score == plain.score
     assert sampled.occluded is not None and sampled.occluded.shape == (len(plain.points),)
     chi2 = Fitter(imm_fit_model, failure_test="chi2", appearance=False)
     judged = chi2.fit_box(image, box)
     assert judged.c.shape == (n,) and chi2.quality is None
-    assert judged.failed or judged.confidence == pytest.approx(chi2.failure.confidence(judged.c))
+    assert not judged.failed and 0 < judged.confidence <= 1  # a face the model knows
     aam = Fitter(imm_fit_model, "fixed-jacobian", failure_test="quality")
     scored = aam.fit_box(image, box)
     assert math.isfinite(scored.score) and scored.c.shape == (n,) and aam.warps
@@ -160,7 +168,11 @@ def test_the_quality_threshold_is_applied_once_by_the_fitter(imm_fit_model, imm_
     # go on from, here nothing).
     assert raw.ok and np.isnan(raw.confidence)
     judged = fitter.fit_box(image, box)
-    assert judged.failed == bool(QualityTest(imm_fit_model.binary.threshold).reason(judged.score))
+    assert judged.ok and judged.reason == "" and judged.confidence > 0.5  # the face
+    # the same box on the image's corner, where there is no face: judged failed, by its score
+    off = fitter.fit_box(image, np.array([5.0, 5.0, box[2], box[3]]))
+    assert off.failed and "fit-quality score" in off.reason and off.confidence < 0.05
+    assert off.score > imm_fit_model.binary.threshold > judged.score
 
 
 def test_refinement_iterates_the_aam_from_the_landmarks(imm_fit_model, imm_test) -> None:
@@ -178,12 +190,11 @@ def test_refinement_iterates_the_aam_from_the_landmarks(imm_fit_model, imm_test)
     assert all(b <= a for a, b in zip(refined.errors, refined.errors[1:], strict=False))
     staged = Fitter(imm_fit_model, refine=2, refine_with="supervised-descent").fit_box(image, box)
     assert isinstance(staged, AAMFit) and staged.iterations == 2 and staged.ok
-    # A refined fit is a new fit, scored and judged at its own landmarks.
-    scorer = plain.scorer
+    # A refined fit is a new fit, scored and judged at its own landmarks: its score
+    # predicts its own error against the truth, and a good fit is judged good.
     for fit in (projected, refined, staged):
-        assert fit.score == pytest.approx(scorer.score(image, fit.points), abs=1e-9)
-        assert fit.confidence == pytest.approx(QualityTest(imm_fit_model.binary.threshold)
-                                               .confidence(fit.score))
+        assert predicts(fit, imm_test[0], imm_fit_model.aam.scheme)
+        assert fit.ok and fit.confidence > 0.5
     with pytest.raises(ValueError, match="refine_with 'project-out-ic': choose one of"):
         Fitter(imm_fit_model, refine=2, refine_with="project-out-ic")
 

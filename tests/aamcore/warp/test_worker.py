@@ -1,10 +1,12 @@
-"""The GL warp thread: requests, errors, shutdown, and the CPU fallback."""
+"""The GL warp thread: requests, errors, shutdown, the CPU fallback, and what ``auto``
+chooses, from facts found outside the warp (the model's size, the GL renderer)."""
 
 from __future__ import annotations
 
 import logging
 import threading
 
+import moderngl
 import numpy as np
 import pytest
 
@@ -124,23 +126,51 @@ def test_make_warp_falls_back_to_the_cpu(imm_model, caplog: pytest.LogCaptureFix
     assert len(reasons) == 1 and "using the CPU warp" in reasons[0]
 
 
-def test_auto_uses_the_cpu_for_a_small_model(imm_model, monkeypatch: pytest.MonkeyPatch) -> None:
+SOFTWARE_RASTERISERS = ("llvmpipe", "softpipe", "swiftshader")
+"""How the software GL rasterisers name themselves (Mesa's two, Google's SwiftShader): a
+renderer that rasterises on the CPU cores, where OpenCV's warp is faster."""
+
+
+def gl_renderer() -> str:
+    """The renderer of a GL context made here, as its driver names it."""
+    ctx = moderngl.create_standalone_context(backend="egl")
+    try:
+        return str(ctx.info["GL_RENDERER"])
+    finally:
+        ctx.release()
+
+
+def chosen(imm_model) -> str:
+    warp, path = make_warp(imm_model, "auto")
+    try:
+        assert isinstance(warp, GLWarpWorker if path == "gpu" else CPUWarp)
+        return path
+    finally:
+        warp.close()
+
+
+def test_auto_uses_the_cpu_for_a_model_below_the_documented_size(imm_model) -> None:
+    # the documented threshold (the GL worker gains from about 30,000 reference pixels)
+    assert imm_model.frame.n_pixels < 20_000 <= warps.GPU_MIN_PIXELS
+    assert chosen(imm_model) == "cpu"  # whatever renderer this machine has: no context made
+
+
+def test_auto_uses_the_gpu_for_a_large_model_on_a_real_gpu_only(
+        imm_model, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the IMM model taken as large: the choice is then the renderer's
+    monkeypatch.setattr(warps, "GPU_MIN_PIXELS", imm_model.frame.n_pixels)
+    renderer = gl_renderer().lower()
+    software = any(name in renderer for name in SOFTWARE_RASTERISERS)
+    assert chosen(imm_model) == ("cpu" if software else "gpu"), renderer
+
+
+def test_auto_takes_the_gl_worker_when_the_renderer_counts_as_a_gpu(
+        imm_model, monkeypatch: pytest.MonkeyPatch) -> None:
+    """On a machine without a GPU, this machine's renderer counted as one: a large model gets
+    the GL worker, a small one the CPU (what a GPU machine's auto does, with a real GL
+    context and worker)."""
+    monkeypatch.setattr(warps, "SOFTWARE_RENDERERS", ())
+    monkeypatch.setattr(warps, "GPU_MIN_PIXELS", imm_model.frame.n_pixels)
+    assert chosen(imm_model) == "gpu"
     monkeypatch.setattr(warps, "GPU_MIN_PIXELS", imm_model.frame.n_pixels + 1)
-    warp, path = make_warp(imm_model, "auto")
-    try:
-        assert path == "cpu" and isinstance(warp, CPUWarp)  # no GL context made
-    finally:
-        warp.close()
-
-
-def test_auto_uses_the_cpu_on_a_software_renderer(imm_model, monkeypatch: pytest.MonkeyPatch
-                                                  ) -> None:
-    monkeypatch.setattr(warps, "GPU_MIN_PIXELS", 0)
-    warp, path = make_warp(imm_model, "auto")
-    try:
-        renderer = getattr(warp, "renderer", "")
-        software = "llvmpipe" in renderer or "cpu" in renderer
-        # Mesa's llvmpipe here: auto picks the CPU; on a real GPU it would pick the GPU.
-        assert path == ("cpu" if software else "gpu")
-    finally:
-        warp.close()
+    assert chosen(imm_model) == "cpu"
