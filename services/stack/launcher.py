@@ -44,7 +44,6 @@ import socket
 import sys
 import time
 import uuid
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -118,38 +117,6 @@ def free_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
-
-
-def prepare_models(opts: StackOptions) -> StackOptions:
-    """The run with every model the services need named: trained or found in the cache.
-
-    The fitter's model is ``--model`` or the default one; the expression
-    service gets the same model and its classifier (``--classifier`` or the
-    cached one for the fitter's model, algorithm and the deployed features,
-    trained on first use; none when JAFFE cannot be had, and the service then
-    says why in its status).
-    """
-    from aamcore.io.sample import DatasetError
-    from aamcore.profiles import classifier_path, model_path
-    from services.stack.options import pipeline
-
-    services = dict(opts.services)
-    fitter = services.get("fitter")
-    if fitter is None:
-        return opts
-    path = str(model_path(fitter.model))
-    services["fitter"] = fitter.with_values(model_file=path)
-    expression = services.get("expression")
-    if expression is not None:
-        classifier = expression.expression.classifier
-        if not classifier:
-            try:
-                classifier = str(classifier_path(path, pipeline(opts)))
-            except (DatasetError, OSError, ValueError) as exc:
-                log.warning("no expression classifier: %s", exc)
-        services["expression"] = expression.with_values(
-            fitting_model=path, expression_classifier=classifier, algorithm=fitter.algorithm)
-    return replace(opts, services=services)
 
 
 def service_specs(opts: StackOptions, bus: BusOptions, keyring: Keyring | None = None
@@ -236,7 +203,7 @@ class Stack:
     Parameters
     ----------
     opts : StackOptions
-        With the models named (see :func:`prepare_models`).
+        With the models named (see :func:`preflight.prepare_models`).
     """
 
     def __init__(self, opts: StackOptions) -> None:
@@ -383,7 +350,7 @@ def prepared(opts: StackOptions) -> StackOptions:
     preflight.check_outputs(opts)
     preflight.check_input(opts)
     preflight.check_models(opts)
-    opts = prepare_models(opts)
+    opts = preflight.prepare_models(opts)
     # Now that the models are named: the classifier was made for the fits of these.
     preflight.check_classifier(opts.services.get("expression"), opts.services.get("fitter"))
     return opts

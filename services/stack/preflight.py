@@ -19,9 +19,11 @@ from __future__ import annotations
 
 import contextlib
 import io
+import logging
 import os
 import re
 import socket
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +31,8 @@ from services.bus.args import parse_service_args, service_argv
 from services.bus.connection import BusOptions
 from services.stack.options import StackOptions
 from services.stack.registry import SERVICES
+
+log = logging.getLogger("aamtrack.launcher")
 
 ENDPOINT = re.compile(r"tcp/(?P<host>[0-9A-Za-z.\-\[\]:]+):(?P<port>\d+)")
 
@@ -190,3 +194,35 @@ def check_viewer(opts: StackOptions) -> None:
         probe(viewer)
     except ViewerError as exc:
         raise PreflightError(f"--connect: {exc}") from None
+
+
+def prepare_models(opts: StackOptions) -> StackOptions:
+    """The run with every model the services need named: trained or found in the cache.
+
+    The fitter's model is ``--model`` or the default one; the expression
+    service gets the same model and its classifier (``--classifier`` or the
+    cached one for the fitter's model, algorithm and the deployed features,
+    trained on first use; none when JAFFE cannot be had, and the service then
+    says why in its status).
+    """
+    from aamcore.io.sample import DatasetError
+    from aamcore.profiles import classifier_path, model_path
+    from services.stack.options import pipeline
+
+    services = dict(opts.services)
+    fitter = services.get("fitter")
+    if fitter is None:
+        return opts
+    path = str(model_path(fitter.model))
+    services["fitter"] = fitter.with_values(model_file=path)
+    expression = services.get("expression")
+    if expression is not None:
+        classifier = expression.expression.classifier
+        if not classifier:
+            try:
+                classifier = str(classifier_path(path, pipeline(opts)))
+            except (DatasetError, OSError, ValueError) as exc:
+                log.warning("no expression classifier: %s", exc)
+        services["expression"] = expression.with_values(
+            fitting_model=path, expression_classifier=classifier, algorithm=fitter.algorithm)
+    return replace(opts, services=services)

@@ -57,13 +57,12 @@ its residual and the occlusion test read; 10,000 pixels cost four times the warp
 products for the same flags and expression rows)."""
 PHASES = (("appearance model", 3.0), ("face detection", 15.0), ("update matrices, level 0", 3.0),
           ("update matrices, level 1", 3.0), ("descent stages", 22.0),
-          ("coarse HOG stages", 29.0), ("fern stages", 25.0), ("restart stages", 25.0),
+          ("coarse HOG stages", 29.0), ("fern stages", 61.0), ("restart stages", 38.0),
           ("occlusion test", 60.0))
 """The phases of training the default model, in order, with their seconds on a quiet
 two-core machine (their shares as measured on a loaded one, 1668 s in all, scaled to the
-201 s of a quiet one; the fern and restart stages of recipe fitting v13 from their CPU time
-against the other phases', ``bench/bench_prepare.py``): what "phase k of n" and the time left
-are reckoned from (:func:`aamcore.progress.plan`)."""
+201 s of a quiet one, for recipe fitting v12; ``bench/bench_prepare.py`` measures them):
+what "phase k of n" and the time left are reckoned from (:func:`aamcore.progress.plan`)."""
 
 Bar = Callable[[str], Callable[[Iterable[Any]], Iterable[Any]]]
 

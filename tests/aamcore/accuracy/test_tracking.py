@@ -60,7 +60,7 @@ def test_tracking_is_right_on_nearly_every_frame(small_model: FittingModel, clip
 
 def test_the_thesis_profile_finds_and_fits_the_face(model_path: Path, clips) -> None:
     tracker = FaceTracker(model=model_path, classifier=False, profile="thesis", warp="cpu",
-                          smoothing=False)
+                          landmark_smoothing=False, pose_smoothing=False)
     for sequence in clips:
         tracker.reset()
         found = [tracker.process(f, k / 30) for k, f in enumerate(sequence.frames)]

@@ -30,9 +30,10 @@ from services.bus.connection import BusOptions
 from services.bus.qos import MUST_ARRIVE
 from services.bus.session import Service
 from services.bus.shm import POOL_IMAGES
-from services.stack.launcher import Stack, free_port, prepare_models
+from services.stack.launcher import Stack, free_port
 from services.stack.options import StackOptions
 from services.stack.outcome import EXIT_FAILED, exit_code, unanswered_problem
+from services.stack.preflight import prepare_models
 from services.stack.recorder import load_messages, read_recording
 from tests.expectations import FRAMES, GOOD_SHARE, check_poses
 from tests.videos import decoded_frames
