@@ -6,12 +6,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from posit_poses import CAMERA, Truth, errors, random_pose
 
 from aamcore.config import data_root
 from aamcore.pose.align import align_points
 from aamcore.pose.head_model import RECOMMENDED_SUBSET, SUBSETS, HeadModel, imm73, openface68
 from aamcore.pose.mesh import Mesh, SurfacePoints, lift_frontal, surrey_ibug_vertices
+from bench.posit_poses import CAMERA, Truth, errors, random_pose
 
 
 @dataclass(frozen=True)
