@@ -1,6 +1,6 @@
 """Attack bench (issue 42): every attack of the test suite on a real run, repeated.
 
-Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_attacks.py [--runs 3] [-k EXPR]``
+Run: ``OMP_NUM_THREADS=1 python -m bench attacks [--runs 3] [-k EXPR]``
 
 Each attack is a test of the suite (a real stack and a real attacker process: a thief
 without capabilities, an intruder on the run's bus), run ``--runs`` times, each time in a
@@ -21,13 +21,13 @@ seconds of its slowest run; the last failure's reason is printed under it.
 
 from __future__ import annotations
 
-import argparse
 import os
 import subprocess
 import sys
 import time
 
 from aamcore.config import REPO_ROOT
+from bench import options
 
 ATTACKS = {
     "traced before hardening": "tests/services/stack/test_key_theft.py::"
@@ -57,11 +57,11 @@ def attack(node: str) -> tuple[bool, float, str]:
     return done.returncode == 0, took, (lines[0] if lines else done.stdout[-300:]).strip()
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("-k", default="", help="only the attacks whose name holds this")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     load = os.getloadavg()[0]
     print(f"load average {load:.1f} on {os.cpu_count()} cores; {args.runs} runs per attack")
     print(f"{'attack':<28}{'passed':>10}{'slowest s':>11}")
@@ -81,6 +81,3 @@ def main() -> int:
           f"(load average {os.getloadavg()[0]:.1f} at the end)")
     return 0 if ok else 1
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -16,7 +16,6 @@ time. Target (issue 37): every frame posed in every mode, both launchers exit 0.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
@@ -28,6 +27,7 @@ from pathlib import Path
 import cv2
 
 from aamcore.config import REPO_ROOT, data_root
+from bench import options
 
 ENV = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO_ROOT)}
 COMPUTE = ("detector", "fitter", "pose", "expression")
@@ -146,12 +146,12 @@ def run_mode(ns: Namespaces, folder: Path, mode: str, clip: Path) -> dict:
     return row
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--frames", type=int, default=472)
     parser.add_argument("--modes", nargs="+", default=["peer", "client"])
     parser.add_argument("--runs", type=int, default=1)
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     ok = True
     with tempfile.TemporaryDirectory() as tmp, Namespaces() as ns:
         folder = Path(tmp)
@@ -176,6 +176,3 @@ def main() -> int:
           "mode, both launchers exit 0")
     return 0 if ok else 1
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -14,13 +14,12 @@ Measures, on the real data under ``AAMTRACK_DATA``:
    landmark-box fallback and the thesis's centre-of-gravity start. The
    reference is the mean of the GPA-aligned training shapes.
 
-Run: ``python bench/bench_detection.py [--lfpw-limit N] [--ced out.png]``.
+Run: ``python -m bench detection [--lfpw-limit N] [--ced out.png]``.
 The last line is ``PASS`` or ``FAIL`` with the targets that were missed.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import time
@@ -38,6 +37,7 @@ from aamcore.evaluation.fits import cog_start
 from aamcore.evaluation.metrics import nme, summarise
 from aamcore.io import AnnotatedSet, load_annotated_folder
 from aamcore.model.procrustes import generalised_procrustes
+from bench import options
 
 FRAME = (640, 480)
 TARGETS = {
@@ -225,10 +225,10 @@ def nme_table(name: str, errors: dict[str, list[float]]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--lfpw-limit", type=int, default=None, help="use only N LFPW images")
     parser.add_argument("--ced", type=Path, default=None, help="write a CED PNG of start NMEs")
-    args = parser.parse_args(argv)
+    args = options.parse(parser, argv)
 
     detector = HaarFaceDetector()
     imm = load_annotated_folder(data_root() / "imm_frontal")
@@ -272,6 +272,3 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\n{'FAIL: ' + '; '.join(missed) if missed else 'PASS'} (targets: {targets})")
     return 1 if missed else 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

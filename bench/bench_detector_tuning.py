@@ -1,6 +1,6 @@
 """Tune the Haar detector on the training split of LFPW, HELEN and AFW.
 
-Run: ``AAMTRACK_DATA=... OMP_NUM_THREADS=1 .venv/bin/python bench/bench_detector_tuning.py``
+Run: ``AAMTRACK_DATA=... OMP_NUM_THREADS=1 python -m bench detector-tuning``
 
 For every cascade, scale factor, least face size and longest side searched
 (``max_side``: images downscaled to it first, as
@@ -21,7 +21,6 @@ windows are cached under ``cache_dir()/research``.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import time
@@ -38,6 +37,7 @@ from aamcore.detection.haar import cascade_path  # noqa: E402
 from aamcore.io import load_annotated_folder  # noqa: E402
 from aamcore.io.splits import SPLIT_SETS, is_held_out  # noqa: E402
 from aamcore.io.video import video_frames  # noqa: E402
+from bench import options
 
 SCANS = [
     ("haarcascade_frontalface_alt2.xml", 1.2, 60, 320),  # the project's setting before
@@ -108,11 +108,11 @@ def rates(entry: dict, faces: list, k: int, held: bool) -> list[float]:
     return out + [float(np.mean(total)), float(np.mean(largest)), float(np.mean(extra))]
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> None:
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--choose", default="frontalface_alt2-1.1-60-320:2",
                         help="KEY:MIN_NEIGHBORS reported on the held-out split")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     cv2.setNumThreads(1)
     path = cache_dir() / "research" / "haar_raw_port.json"
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -153,6 +153,3 @@ def main() -> None:
             print(f"{name:<36}{kk:>7}" + "".join(f"{v:>8.1%}" for v in r[:-1])
                   + f"{r[-1]:>7.3f}")
 
-
-if __name__ == "__main__":
-    main()

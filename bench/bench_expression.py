@@ -20,7 +20,7 @@ streams >= 80 % of frames right whatever the opening; JAFFE leave one poser out
 
 Run (from the repository root, ``AAMTRACK_DATA`` set)::
 
-    OMP_NUM_THREADS=1 PYTHONPATH=. .venv/bin/python bench/bench_expression.py
+    OMP_NUM_THREADS=1 PYTHONPATH=. python -m bench expression
         [--fit-model FILE] [--fer] [--streams] [--cross] [--select] [--performers 01,14]
 
 Exit status 0 when every target measured is met.
@@ -28,7 +28,6 @@ Exit status 0 when every target measured is met.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -47,6 +46,7 @@ from aamcore.evaluation.expression_report import format_table
 from aamcore.expression.classifier_file import ExpressionClassifier
 from aamcore.expression.training import RECIPE, classifier_path
 from aamcore.io.expression_sets import EXPRESSION_SETS
+from bench import options
 
 TARGET_MS = 3.0
 
@@ -56,8 +56,7 @@ def say(line: str) -> None:
 
 
 def fer_peer() -> tuple[str, object]:
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from fer_peer import FerPeer, available
+    from bench.fer_peer import FerPeer, available
 
     missing = available()
     if missing:
@@ -67,7 +66,7 @@ def fer_peer() -> tuple[str, object]:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the bench, print the tables and the PASS/FAIL lines; 0 if the targets are met."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--fit-model", type=Path, metavar="FILE",
                         help="fitting model (default: the stack's, trained on first use)")
     parser.add_argument("--fer", action="store_true", help="the fer peer on the same faces")
@@ -78,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cross", action="store_true", help="the cross-set rows")
     parser.add_argument("--select", action="store_true", help="the recipe's choices on a "
                         "validation split of the training people")
-    args = parser.parse_args(argv)
+    args = options.parse(parser, argv)
     start = time.perf_counter()
     from aamcore.fitting.training.prepare import default_model_path
 
@@ -139,8 +138,7 @@ def main(argv: list[str] | None = None) -> int:
 def streams(bench: object, model: Path, path: Path, peer: object, performers: str | None
             ) -> list[tuple[str, bool]]:
     """The stream-order sequences' table and their check."""
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from expression_streams import DEPLOYED_ROW, format_streams, run_streams
+    from bench.expression_streams import DEPLOYED_ROW, format_streams, run_streams
 
     chosen = performers.split(",") if performers else None
     scores = run_streams(bench, model, path, chosen, peer=peer, say=say)  # type: ignore
@@ -162,6 +160,3 @@ def select(bench: object) -> None:
                          ["C", "Taiwanese weight", "relative C", "absolute weight"]))
     print(f"\nchosen: {relative[0].recipe}")
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,6 +1,6 @@
 """Compare aamtrack's fitter with OpenCV's ``cv2.face.createFacemarkAAM`` on LFPW.
 
-Run: ``.venv/bin/python bench/bench_facemark.py [--limit N]``
+Run: ``python -m bench facemark [--limit N]``
 
 Protocol (as aamtrack's own LFPW bench): ``lfpw/trainset`` sorted by file
 name, the first 80 % train both models, the last 20 % are fitted. Both
@@ -33,7 +33,6 @@ Prints a table of both methods side by side with the ratios, then the lines
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import json
 import os
@@ -59,6 +58,7 @@ from aamcore.io import FaceSample, load_annotated_folder
 from aamcore.io.landmarks import LandmarkScheme
 from aamcore.model.cache import cache_key, cached_file
 from aamcore.model.training import TrainConfig, train_aam
+from bench import options
 
 RUNNER = Path(__file__).resolve().parent / "facemark_runner.py"
 REQUIREMENTS = ("opencv-contrib-python-headless>=4.10,<5", "numpy")
@@ -294,11 +294,11 @@ def print_table(aamtrack: list[MethodResult], opencv: MethodResult) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--limit", type=int, help="fit only the first N test images (quick run)")
     parser.add_argument("--opencv-pixels", type=int,
                         help="texture pixels of the OpenCV model (default: as aamtrack's)")
-    args = parser.parse_args(argv)
+    args = options.parse(parser, argv)
     if args.limit is not None and args.limit < 1:
         parser.error("--limit must be >= 1")
     cv2.setNumThreads(1)
@@ -349,6 +349,3 @@ def main(argv: list[str] | None = None) -> int:
     )
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,6 +1,6 @@
 """What each failure test keeps and rejects, on held-out faces, far-off starts and no face.
 
-Run: ``PYTHONPATH=. .venv/bin/python bench/bench_failure_tests.py [--model FILE]``
+Run: ``PYTHONPATH=. python -m bench failure-tests [--model FILE]``
 
 1. The learned quality test of the default method (threshold stored in the
    model), per held-out set of LFPW, HELEN and AFW: its Haar fits (good ones:
@@ -26,10 +26,8 @@ Run: ``PYTHONPATH=. .venv/bin/python bench/bench_failure_tests.py [--model FILE]
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import os
-from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -46,12 +44,12 @@ from aamcore.fitting.fitter import Fitter  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
 from aamcore.fitting.tracker import Tracker  # noqa: E402
 from aamcore.fitting.training.perturb import placed_on_no_face  # noqa: E402
-from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
 from aamcore.fitting.training.quality import calibrate, failure_rates  # noqa: E402
 from aamcore.io import load_annotated_folder  # noqa: E402
 from aamcore.io.landmarks import IBUG68  # noqa: E402
 from aamcore.io.splits import SPLIT_SETS, split  # noqa: E402
 from aamcore.io.video import video_frames  # noqa: E402
+from bench import options
 
 
 def far_starts(start: np.ndarray, rng: np.random.Generator) -> list[np.ndarray]:
@@ -199,20 +197,16 @@ def video_table(model: FittingModel) -> None:
             print(f"{algorithm:<20}{kind:<8}{flagged:>9}{tracker.detections:>12}")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--model", type=Path, help="fitting model (default: the default one)")
+def main(argv: list[str] | None = None) -> None:
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--quality-only", action="store_true",
                         help="parts 1 and 4 only (the default method)")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     cv2.setNumThreads(1)
-    model = FittingModel.load(args.model or default_model_path())
+    model = FittingModel.load(options.model_path(args))
     with threadpool_limits(1):
         quality_table(model)
         if not args.quality_only:
             aam_table(model)
             video_table(model)
 
-
-if __name__ == "__main__":
-    main()

@@ -14,22 +14,13 @@
 
 Usage::
 
-    python bench/bench_faults.py [--overload-s 90] [--warp gpu|cpu]
+    python -m bench faults [--overload-s 90] [--warp gpu|cpu]
 
 Prints a table per part and PASS/FAIL lines; exits 1 if a target is missed.
 """
 
-# ruff: noqa: E402  (the repository root must be on sys.path before proto is imported)
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
-REPO_ROOT = Path(__file__).resolve().parents[1]
-if str(REPO_ROOT) not in sys.path:
-    sys.path.insert(0, str(REPO_ROOT))
-
-import argparse
 import logging
 import os
 import signal
@@ -37,6 +28,7 @@ import tempfile
 import threading
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import cv2
@@ -44,6 +36,7 @@ import msgpack
 import numpy as np
 
 from aamcore.config import data_root
+from bench import options
 from services.bus.connection import BusOptions
 from services.bus.session import Service
 from services.stack.launcher import Stack, free_port, prepared
@@ -85,7 +78,7 @@ class Observer:
             return {i for i, t in self.published_at.items() if t0 <= t <= t1}
 
 
-def options(video: Path, warp: str, **kw: Any) -> StackOptions:
+def stack_options(video: Path, warp: str, **kw: Any) -> StackOptions:
     argv = ["--video", str(video), "--model-limit", str(MODEL_LIMIT), "--model-images",
             str(MODEL_IMAGES), "--warp", warp, "--endpoint", f"tcp/127.0.0.1:{free_port()}",
             "--stream", "bench", "--drain-max", "10"]
@@ -115,7 +108,7 @@ def recover(stack: Stack, probe: Service, name: str, timeout: float = 15.0) -> f
 
 def kill_each(video: Path, warp: str) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Part 1; a row per killed service and the run's summary."""
-    opts = options(video, warp, pace="realtime", loop=20)
+    opts = stack_options(video, warp, pace="realtime", loop=20)
     observer = Observer()
     rows: list[dict[str, Any]] = []
     with Stack(opts) as stack:
@@ -149,7 +142,7 @@ def stack_rate(video: Path, warp: str) -> tuple[float, int]:
     """Fits per second the stack answers with fast pacing (between its first and last fit),
     and the number of fits."""
     times: list[float] = []
-    with Stack(options(video, warp, pace="fast", loop=3)) as stack:
+    with Stack(stack_options(video, warp, pace="fast", loop=3)) as stack:
         stack.service.subscribe(stack.service.key("fit"), lambda _: times.append(
             time.monotonic()))
         stack.wait()
@@ -194,7 +187,7 @@ def overload(video: Path, warp: str, seconds: float, rate: float) -> dict[str, A
         fast = Path(tmp) / "overload.avi"
         n = rewrite_at(video, fps, fast)
         loops = int(np.ceil(seconds * fps / n)) + 1
-        opts = options(fast, warp, pace="realtime", loop=loops, max_frames=int(seconds * fps))
+        opts = stack_options(fast, warp, pace="realtime", loop=loops, max_frames=int(seconds * fps))
         samples: dict[str, list[tuple[float, int]]] = {}
         with Stack(opts) as stack:
             waiter = threading.Thread(target=stack.wait, daemon=True)
@@ -255,13 +248,13 @@ def report_kills(rows: list[dict[str, Any]], summary: dict[str, Any]) -> bool:
     return ok
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--overload-s", type=float, default=90.0, help="overload run length")
     parser.add_argument("--warmup-s", type=float, default=20.0, help="overload warm-up")
     parser.add_argument("--warp", choices=("gpu", "cpu"), default="gpu")
     parser.add_argument("--skip-kill", action="store_true", help="only the overload part")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     logging.basicConfig(level=logging.ERROR)
     video = data_root() / "videos" / "single_face.mp4"
     ok = True
@@ -306,6 +299,3 @@ def main() -> int:
           f"by the fitter")
     return 0 if ok else 1
 
-
-if __name__ == "__main__":
-    sys.exit(main())

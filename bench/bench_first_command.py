@@ -1,6 +1,6 @@
 """The README's first command on a fresh checkout with an empty model cache: its phases.
 
-Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_first_command.py [--repo PATH]
+Run: ``OMP_NUM_THREADS=1 python -m bench first-command [--repo PATH]
 [--keep]``
 
 Clones the repository's committed HEAD into a temporary folder (no ``.venv``, no ``out/``),
@@ -18,16 +18,16 @@ the target: exit 0 in under 10 minutes on two cores, without a warning or a trac
 
 from __future__ import annotations
 
-import argparse
 import os
 import re
 import resource
 import shutil
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
+
+from bench import options
 
 TARGET_S = 600.0
 NOISE = re.compile(r"warn|traceback|deprecat|error:|exception", re.IGNORECASE)
@@ -70,11 +70,11 @@ def phase_ends(lines: list[tuple[float, str]]) -> list[float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--repo", type=Path, default=Path(__file__).resolve().parent.parent,
                         help="the repository to clone (default: this one)")
     parser.add_argument("--keep", action="store_true", help="keep the clone and its cache")
-    args = parser.parse_args(argv)
+    args = options.parse(parser, argv)
     work = Path(tempfile.mkdtemp(prefix="first-command-"))
     clone, cache = work / "aamtrack", work / "cache"
     cache.mkdir()
@@ -112,6 +112,3 @@ def main(argv: list[str] | None = None) -> int:
         shutil.rmtree(work, ignore_errors=True)
     return 0 if ok else 1
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,7 +1,7 @@
 """Bench: what a new user meets first, as whole processes: help at once, an annotated video at
 least as fast as the video plays.
 
-Run: ``.venv/bin/python bench/bench_first_minutes.py [--runs 9] [--video FILE]``
+Run: ``python -m bench first-minutes [--runs 9] [--video FILE]``
 
 1. **Help**: ``aamtrack --help``, ``aamtrack run --help`` and ``aamtrack track --help``, each
    the whole process, ``--runs`` times in turn: median and range of the wall time.
@@ -20,7 +20,6 @@ printed with them.
 
 from __future__ import annotations
 
-import argparse
 import os
 import re
 import statistics
@@ -29,6 +28,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+from bench import options
 
 AAMTRACK = Path(sys.executable).with_name("aamtrack")
 HELP_TARGETS = {("--help",): 0.3, ("run", "--help"): 0.5, ("track", "--help"): None}
@@ -128,15 +129,15 @@ def annotate_rows(video: Path, pairs: int) -> dict[str, list[float]]:
     return got
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     from aamcore.config import data_root
 
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--runs", type=int, default=9, help="runs of each help (default 9)")
     parser.add_argument("--pairs", type=int, default=3, help="track runs with and without "
                         "--annotate (default 3 each)")
     parser.add_argument("--video", type=Path, default=data_root() / "videos" / "single_face.mp4")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     passed = True
     print(f"\n{'command':<24}{'median s':>10}{'min s':>8}{'max s':>8}{'target s':>10}")
@@ -165,6 +166,3 @@ def main() -> int:
     print(f"load average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0 if passed else 1
 
-
-if __name__ == "__main__":
-    sys.exit(main())

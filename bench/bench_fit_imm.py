@@ -1,6 +1,6 @@
 """IMM Frontal Monte Carlo fitting benchmark, in the layout of thesis table 7.1.
 
-Run: ``.venv/bin/python bench/bench_fit_imm.py [--algorithm multi-resolution] [--folds 4]``
+Run: ``python -m bench fit-imm [--algorithm multi-resolution] [--folds 4]``
 
 Subjects are held out by folds (4 folds of 3 subjects by default): each fold
 trains a grey model with everything fitting needs on the other 9 subjects and
@@ -12,7 +12,6 @@ counted two ways: the thesis's test (eq. 7.2, an appearance parameter beyond
 
 from __future__ import annotations
 
-import argparse
 import time
 
 import numpy as np
@@ -30,6 +29,7 @@ from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.training.prepare import train_fitting_model
 from aamcore.io import load_annotated_folder
 from aamcore.model.training import TrainConfig, train_aam
+from bench import options
 
 
 def worst(rates: dict, key: str, limit: float = 40.0) -> float:
@@ -37,12 +37,12 @@ def worst(rates: dict, key: str, limit: float = 40.0) -> float:
     return max(c[key] for axis in rates.values() for o, c in axis.items() if abs(o) <= limit)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> None:
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--algorithm", choices=ALGORITHMS, default="multi-resolution")
     parser.add_argument("--folds", type=int, default=4)
     parser.add_argument("--offsets", default=",".join(str(o) for o in THESIS_OFFSETS))
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     offsets = [float(o) for o in args.offsets.split(",")]
     data = load_annotated_folder(resolve_dataset("imm_frontal"))
     subjects = data.subjects()
@@ -81,6 +81,3 @@ def main() -> None:
                 f"{w:.2f} % for displacements up to 40 px (target <= 5 %)"
             )
 
-
-if __name__ == "__main__":
-    main()

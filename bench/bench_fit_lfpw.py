@@ -1,6 +1,6 @@
 """Held-out fitting benchmark: LFPW, HELEN and AFW, every method from the Haar box.
 
-Run: ``PYTHONPATH=. .venv/bin/python bench/bench_fit_lfpw.py [--model FILE] [--ced out.png]``
+Run: ``PYTHONPATH=. python -m bench fit-lfpw [--model FILE] [--ced out.png]``
 
 Uses the default model (trained on the training splits of the three sets,
 :data:`aamcore.defaults.MODEL_DATASET`; trained and cached on first use) or
@@ -19,7 +19,6 @@ the default only where they improve the landmarks.
 
 from __future__ import annotations
 
-import argparse
 import os
 from pathlib import Path
 
@@ -36,9 +35,9 @@ from aamcore.evaluation.plots import save_ced_png  # noqa: E402
 from aamcore.fitting.algorithm import ALGORITHMS  # noqa: E402
 from aamcore.fitting.fitter import Fitter  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
-from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
 from aamcore.io import load_annotated_folder  # noqa: E402
 from aamcore.io.splits import SPLIT_SETS, split  # noqa: E402
+from bench import options
 
 REFINEMENTS = {
     "local-binary + 3 fixed-Jacobian iterations": {"refine": 3,
@@ -59,17 +58,16 @@ def part_mean(records: list, part: str) -> float:
     return float(np.mean([r.parts[part] for r in records]))
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--model", type=Path, help="fitting model (default: the default one)")
+def main(argv: list[str] | None = None) -> None:
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--ced", type=Path, help="PNG of the cumulative error curves (LFPW)")
     parser.add_argument("--algorithms", default=",".join(ALGORITHMS))
     parser.add_argument("--sets", default=",".join(SPLIT_SETS))
     parser.add_argument("--no-refinements", action="store_true", help="leave out the rows "
                         "of the default method refined by an AAM method")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     cv2.setNumThreads(1)
-    path = args.model or default_model_path()
+    path = options.model_path(args)
     model = FittingModel.load(path)
     aam = model.aam
     print(f"model {path.name}: AAM t_s={aam.shape.n_modes} t_g={aam.texture.n_modes} "
@@ -103,6 +101,3 @@ def main() -> None:
     if args.ced and curves:
         save_ced_png(curves, args.ced, title="LFPW held-out split, Haar start")
 
-
-if __name__ == "__main__":
-    main()

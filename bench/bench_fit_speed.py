@@ -1,6 +1,6 @@
 """Fitting speed on one core: tracking from the previous frame and starting from a Haar box.
 
-Run: ``PYTHONPATH=. .venv/bin/python bench/bench_fit_speed.py [--model FILE] [--letterbox]``
+Run: ``PYTHONPATH=. python -m bench fit-speed [--model FILE] [--letterbox]``
 
 Uses the stack's default model (trained on the training splits of LFPW, HELEN
 and AFW, cached on first use) or ``--model``, on the frames of
@@ -23,7 +23,6 @@ per-frame differences is what each adds. Target: the appearance and flags add
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 from collections.abc import Callable
@@ -41,8 +40,8 @@ from aamcore.detection.haar import HaarFaceDetector  # noqa: E402
 from aamcore.fitting.algorithm import ALGORITHMS  # noqa: E402
 from aamcore.fitting.fitter import Fitter  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
-from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
 from aamcore.io.video import video_frames  # noqa: E402
+from bench import options
 
 
 def letterbox(frame: np.ndarray, size: tuple[int, int] = (640, 480)) -> np.ndarray:
@@ -211,18 +210,17 @@ def versus_dlib(model: FittingModel, frames: list[np.ndarray], box: np.ndarray,
     return dlibs / mine
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--model", type=Path, help="fitting model (default: the default one)")
+def main(argv: list[str] | None = None) -> None:
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--letterbox", action="store_true", help="frames on a 640x480 canvas")
     parser.add_argument("--methods", nargs="+", default=list(ALGORITHMS),
                         help="the methods of the first table (default: all)")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     cv2.setNumThreads(1)
     frames = video_frames(data_root() / "videos" / "single_face.mp4")
     if args.letterbox:
         frames = [letterbox(f) for f in frames]
-    model = FittingModel.load(args.model or default_model_path())
+    model = FittingModel.load(options.model_path(args))
     aam = model.aam
     detector = HaarFaceDetector()
     det_times, boxes = [], []
@@ -281,6 +279,3 @@ def main() -> None:
         print(f"{'PASS' if track >= 300 else 'FAIL'}: supervised-descent (the AAM methods' best) "
               f"tracks {track:.0f} fits/s (target >= 300)")
 
-
-if __name__ == "__main__":
-    main()

@@ -1,6 +1,6 @@
 """Flood bench (issue 42): the memory a flood of bad messages leaves behind.
 
-Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_flood.py [--flood-s 20]
+Run: ``OMP_NUM_THREADS=1 python -m bench flood [--flood-s 20]
 [--small-model]``
 
 The stack (no AR) on ``single_face.mp4`` looped in real time; after ``--warm-s`` a program on
@@ -14,9 +14,7 @@ every process back within 10 % of its baseline 10 s after the flood ends.
 
 from __future__ import annotations
 
-import argparse
 import os
-import sys
 import threading
 import time
 from pathlib import Path
@@ -24,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from aamcore.config import data_root
+from bench import options
 from proto import Frame, Header, encode
 from services.bus.connection import BusOptions
 from services.bus.session import Service
@@ -57,13 +56,13 @@ def flood(intruder: Service, run: str, until: float) -> int:
     return sent
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--warm-s", type=float, default=30.0)
     parser.add_argument("--flood-s", type=float, default=20.0)
     parser.add_argument("--after-s", type=float, default=10.0)
     parser.add_argument("--small-model", action="store_true")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     video = data_root() / "videos" / "single_face.mp4"
     argv = ["--video", str(video), "--no-ar", "--loop", "1000", "--pace", "realtime"]
     if args.small_model:
@@ -115,6 +114,3 @@ def main() -> int:
           f"{args.after_s:g} s after the flood (load average {os.getloadavg()[0]:.1f})")
     return 0 if ok else 1
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -12,12 +12,11 @@
    CPU ms a frame of the publisher (its publish call) and of each subscriber (its whole
    process), bytes as before against shared memory.
 
-Run: ``python bench/bench_frame_transport.py [--frames 300] [--subscribers 3]``.
+Run: ``python -m bench frame-transport [--frames 300] [--subscribers 3]``.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
@@ -29,6 +28,7 @@ import msgpack
 import numpy as np
 
 from aamcore.config import REPO_ROOT
+from bench import options
 from proto import Frame, Header, decode
 from proto.auth import Keyring, message_digest
 from services.bus.connection import BusOptions
@@ -141,10 +141,10 @@ def end_to_end(frames: int, subscribers: int, shared: bool) -> tuple[float, list
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--frames", type=int, default=300)
     parser.add_argument("--subscribers", type=int, default=3)
-    args = parser.parse_args(argv)
+    args = options.parse(parser, argv)
     print(f"load: {' '.join(f'{x:.2f}' for x in os.getloadavg())}; a 640 x 360 BGR frame, "
           f"{np.prod(SHAPE)} bytes\n\neach step alone (median ms):")
     for what, ms in copies():
@@ -158,6 +158,3 @@ def main(argv: list[str] | None = None) -> int:
     print(f"load: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,6 +1,6 @@
 """Benchmark the OpenGL warp and the glasses renderer (issue 6: the OpenGL parts).
 
-Run: ``.venv/bin/python bench/bench_gl_warp.py``
+Run: ``python -m bench gl-warp``
 
 On IMM Frontal faces scaled to 640x480 frames, with AAMs of about 10k and
 30k reference pixels, prints per-call times (median and 90th percentile) of:
@@ -149,7 +149,7 @@ def bench_ar(ctx: moderngl.Context) -> float:
     return result
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     cv2.setNumThreads(2)
     ctx = moderngl.create_standalone_context(backend="egl")
     print(f"OpenGL renderer: {ctx.info['GL_RENDERER']}\n")
@@ -168,6 +168,3 @@ def main() -> None:
         print(f"{'PASS' if ok else 'FAIL'}: {text}")
     print("PASS" if all(ok for ok, _ in checks) else "FAIL")
 
-
-if __name__ == "__main__":
-    main()

@@ -1,6 +1,6 @@
 """Benchmark model training and the piecewise-affine warp (issue: AAM models).
 
-Run: ``.venv/bin/python bench/bench_models.py``
+Run: ``python -m bench models``
 
 Prints training time and model size for IMM Frontal and the 805 LFPW images,
 and the warp time into the reference frame from a 640x480 colour frame at about
@@ -70,7 +70,7 @@ def bench_warp() -> dict[int, float]:
     return results
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     cv2.setNumThreads(2)
     lfpw = bench_training()
     warp = bench_warp()
@@ -84,6 +84,3 @@ def main() -> None:
         f"{warp[10_000]:.3f} ms (target < 0.5 ms)"
     )
 
-
-if __name__ == "__main__":
-    main()

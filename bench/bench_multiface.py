@@ -19,13 +19,11 @@ finds is missed by both), and time per frame against the number of faces.
 
 Usage::
 
-    PYTHONPATH=. OMP_NUM_THREADS=1 python bench/bench_multiface.py [--frames 150] [--per-set 2]
+    PYTHONPATH=. OMP_NUM_THREADS=1 python -m bench multiface [--frames 150] [--per-set 2]
 """
 
 from __future__ import annotations
 
-import argparse
-import sys
 import time
 import zlib
 from dataclasses import dataclass, field
@@ -33,18 +31,15 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from tracking_clips import held_out_photos  # noqa: E402
-
 from aamcore.detection.haar import HaarFaceDetector  # noqa: E402
 from aamcore.evaluation.metrics import nme  # noqa: E402
 from aamcore.fitting.fitter import Fitter  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
 from aamcore.fitting.multi import MultiTracker  # noqa: E402
-from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
 from aamcore.synth.group import FacePath, GroupScene, group_scene  # noqa: E402
 from aamcore.tracker import FaceResult, FaceTracker  # noqa: E402
+from bench import options
+from bench.tracking_clips import held_out_photos  # noqa: E402
 
 MAX_FACES = 4
 WIDTH = 120.0
@@ -196,12 +191,11 @@ def timing(model: FittingModel, photos, frames: int) -> list[tuple[int, float, f
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--frames", type=int, default=150)
     parser.add_argument("--per-set", type=int, default=2, help="scenes of each kind per set")
-    parser.add_argument("--model", type=Path, help="fitting model (default: the default one)")
-    args = parser.parse_args(argv)
-    model_path = args.model or default_model_path()
+    args = options.parse(parser, argv)
+    model_path = options.model_path(args)
     model = FittingModel.load(model_path)
     scheme = model.aam.scheme
     print(f"model {Path(model_path).name}, {args.frames} frames per scene, max_faces "
@@ -304,6 +298,3 @@ def _row(kind: str, s: Score) -> None:
           f"{s.switches_crossing} | {pick} | {s.missed_entries} | {multi:.4f} | {single:.4f} | "
           f"{multi / single:.3f} |")
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())

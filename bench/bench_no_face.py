@@ -1,6 +1,6 @@
 """Bench: frames without a face stay cheap, and a face that comes back is found at once.
 
-Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_no_face.py [--sizes 640x360,960x540,1280x720]
+Run: ``OMP_NUM_THREADS=1 python -m bench no-face [--sizes 640x360,960x540,1280x720]
 [--no-stack] [--model FILE]``
 
 Clips (written once under ``<cache>/no_face_clips``, MJPG at 30 fps) at each size:
@@ -26,7 +26,6 @@ frames; a lost rolled face (40 degrees) found again within 5 frames.
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import tempfile
@@ -43,9 +42,9 @@ from aamcore.fitting.fitter import Fitter  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
 from aamcore.fitting.search import SearchSchedule  # noqa: E402
 from aamcore.fitting.tracker import Tracker  # noqa: E402
-from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
 from aamcore.fitting.upright import rotated_view  # noqa: E402
 from aamcore.io.video import video_frames  # noqa: E402
+from bench import options
 
 FACE, GAP, BACK = 60, 100, 60
 TURN_FRAMES, ROLL_DEG, ROLLED_BACK = 20, 40.0, 30
@@ -126,14 +125,13 @@ def _frames(n: int | None) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--sizes", default="640x360,960x540,1280x720")
-    parser.add_argument("--model", type=Path, help="fitting model (default: the stack's)")
     parser.add_argument("--no-stack", action="store_true", help="the library rows only")
     parser.add_argument("--no-library", action="store_true", help="the stack rows only")
-    args = parser.parse_args(argv)
+    args = options.parse(parser, argv)
     cv2.setNumThreads(1)
-    model_path = args.model or default_model_path()
+    model_path = options.model_path(args)
     model = FittingModel.load(model_path)
     folder = cache_dir() / "no_face_clips"
     folder.mkdir(exist_ok=True)
@@ -180,6 +178,3 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{'PASS' if ok else 'FAIL'}: {text}")
     return 0 if all(ok for _, ok in verdicts) else 1
 
-
-if __name__ == "__main__":
-    sys.exit(main())

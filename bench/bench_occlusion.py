@@ -1,6 +1,6 @@
 """Occlusion bench: per-landmark occlusion flags against the generated occluder's ground truth.
 
-Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_occlusion.py [--model FILE]
+Run: ``OMP_NUM_THREADS=1 python -m bench occlusion [--model FILE]
 [--per-set 4] [--frames 150] [--regenerate]``
 
 The tracker runs as the library runs it (:class:`aamcore.tracker.FaceTracker`,
@@ -39,7 +39,6 @@ landmarks flagged): of the frames where the occluder hides at least
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 from dataclasses import dataclass, field, replace
@@ -52,13 +51,11 @@ from threadpoolctl import threadpool_limits  # noqa: E402
 
 from aamcore.config import data_root  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
-from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
 from aamcore.io.video import video_frames  # noqa: E402
 from aamcore.synth.motion_files import video_path  # noqa: E402
 from aamcore.tracker import FaceTracker  # noqa: E402
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from tracking_clips import (  # noqa: E402
+from bench import options
+from bench.tracking_clips import (  # noqa: E402
     SETS,
     Clip,
     ensure_sequence,
@@ -172,13 +169,12 @@ def row(name: str, t: Tally) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--model", type=Path, help="fitting model (default: the default one)")
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--per-set", type=int, default=6, help="sequences per set")
     parser.add_argument("--frames", type=int, default=150, help="frames per sequence")
     parser.add_argument("--regenerate", action="store_true", help="remake the sequences")
-    args = parser.parse_args(argv)
-    path = args.model or default_model_path()
+    args = options.parse(parser, argv)
+    path = options.model_path(args)
     model = FittingModel.load(path)
     if model.occlusion is None:
         sys.exit(f"{path}: this model has no occlusion part: retrain it")
@@ -237,6 +233,3 @@ def main(argv: list[str] | None = None) -> int:
     passed = covered >= TARGET_COVERED and visible <= TARGET_VISIBLE and still <= TARGET_STILL
     return 0 if passed else 1
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,6 +1,6 @@
 """Head pose end to end: POSIT on AAM fits of rendered sequences (thesis table 14.1).
 
-Run: ``.venv/bin/python bench/bench_pose_e2e.py [--frames 90] [--plot out/pose_yaw.png]``
+Run: ``python -m bench pose-e2e [--frames 90] [--plot out/pose_yaw.png]``
 
 Renders the synthetic head (``aamcore.synth``) through yaw, pitch, roll and
 distance sweeps (to +-40 deg, 40-120 cm) at 640x480, tracks every frame with
@@ -13,7 +13,6 @@ deg, distance 1.34 cm).
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
@@ -29,18 +28,19 @@ from aamcore.pose.head_model import openface68
 from aamcore.pose.intrinsics import CameraIntrinsics
 from aamcore.synth.head import synth_head
 from aamcore.synth.sequence import default_texture, render_sequence, sweep_poses
+from bench import options
 
 THESIS_STD = {"roll": 1.94, "pitch": 2.57, "yaw": 1.70, "distance_cm": 1.34}
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> None:
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--frames", type=int, default=90, help="frames per sweep")
     parser.add_argument("--plot", type=Path, help="PNG of estimate against truth (yaw sweep)")
     parser.add_argument("--subset", default="no_jaw",
                         help="landmarks POSIT uses (a rigid subset name of the head model, "
                              "or 'all')")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     camera = CameraIntrinsics.from_fov(640, 480, 60.0)
     head = synth_head()
     texture = default_texture(head)
@@ -82,6 +82,3 @@ def main() -> None:
         print(f"{'PASS' if std < limit else 'FAIL'}: {name} error sd {std:.2f} "
               f"(thesis {limit:.2f})")
 
-
-if __name__ == "__main__":
-    main()

@@ -1,6 +1,6 @@
 """Bench: the head pose's per-face work alone, as the stack runs it, in thread CPU time.
 
-Run: ``.venv/bin/python bench/bench_pose_speed.py [--passes 7] [--vs CHECKOUT]``
+Run: ``python -m bench pose-speed [--passes 7] [--vs CHECKOUT]``
 
 The landmarks come first, outside any timing: the default model's ``FaceTracker`` (without
 expression) on ``videos/single_face.mp4`` (the landmarks as served: smoothed, with each fit's
@@ -23,7 +23,6 @@ Target (issue 47 item 1): the stage's per-face work <= 0.3 ms on ``single_face.m
 
 from __future__ import annotations
 
-import argparse
 import os
 import subprocess
 import sys
@@ -128,8 +127,8 @@ def run_worker(checkout: Path, streams_file: Path, passes: int) -> dict[str, np.
     with tempfile.TemporaryDirectory(prefix="bench-pose-") as folder:
         out = Path(folder) / "out.npz"
         env = os.environ | {"PYTHONPATH": str(checkout), "OMP_NUM_THREADS": "1"}
-        subprocess.run([str(checkout / ".venv" / "bin" / "python"), __file__, "--worker",
-                        str(streams_file), "--passes", str(passes), "--out", str(out)],
+        subprocess.run([str(checkout / ".venv" / "bin" / "python"), __file__,
+                        str(streams_file), str(passes), str(out)],
                        cwd=checkout, env=env, check=True)
         with np.load(out) as data:
             return {key: data[key] for key in data.files}
@@ -177,19 +176,16 @@ def report(runs: dict[Path, list[dict[str, np.ndarray]]], names: list[str]) -> f
     return medians[mine, names[0], "tracker"]
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> int:
+    from bench import options  # here: the --vs worker runs this file with another checkout's
+
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--passes", type=int, default=7, help="passes over each stream")
     parser.add_argument("--blocks", type=int, default=3,
                         help="blocks of passes per checkout, run in turn")
     parser.add_argument("--video", type=Path, help="default: videos/single_face.mp4")
     parser.add_argument("--vs", type=Path, help="another checkout to time in turn")
-    parser.add_argument("--worker", type=Path, help=argparse.SUPPRESS)
-    parser.add_argument("--out", type=Path, help=argparse.SUPPRESS)
-    args = parser.parse_args()
-    if args.worker:
-        worker(args.worker, args.passes, args.out)
-        return
+    args = options.parse(parser, argv)
     from aamcore.config import data_root
 
     video = args.video or data_root() / "videos" / "single_face.mp4"
@@ -214,5 +210,5 @@ def main() -> None:
           f"smoothing on {video.name}; target <= {TARGET_MS} ms)")
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # the --vs worker: this file with another checkout's code
+    worker(Path(sys.argv[1]), int(sys.argv[2]), Path(sys.argv[3]))

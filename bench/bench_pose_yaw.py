@@ -2,7 +2,7 @@
 
 Run (from the repository root, ``AAMTRACK_DATA`` set)::
 
-    PYTHONPATH=. .venv/bin/python bench/bench_pose_yaw.py [--tracker annotated,aam]
+    PYTHONPATH=. python -m bench pose-yaw [--tracker annotated,aam]
         [--tracker-fn module:function] [--sequence DIR] [--skip-sweeps] [--eos]
         [--noise 0.02] [--ablations] [--variants a,b]
 
@@ -69,6 +69,7 @@ from aamcore.pose.robust import ContourPose
 from aamcore.pose.rotation import rotation_angle_deg, rotation_from_rpy
 from aamcore.synth.head import synth_head
 from aamcore.synth.sequence import PoseTruth, annotated_landmarks
+from bench import options
 
 SD_TARGET_DEG = 1.5
 SD_TARGET_CM = 1.0
@@ -115,7 +116,7 @@ def variants(camera: CameraIntrinsics, args: argparse.Namespace) -> list[Variant
                              ("rigid-nojaw", {"outline": None})):
             out.append(Variant(name, ContourPose(**kwargs).estimate))
     if args.eos:
-        from eos_pose import EosPose  # bench/eos_pose.py
+        from bench.eos_pose import EosPose  # bench/eos_pose.py
 
         try:
             out.append(Variant("eos", EosPose().estimate))
@@ -320,8 +321,8 @@ def tracker_note(sweeps: list[TrackedSweep], track: Callable[..., Any] | None) -
             f"{np.mean(errs) if errs else float('nan'):.2f} px from the fixed landmark points")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> None:
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--tracker", default="annotated,aam",
                         help="comma-separated: annotated, aam (default both)")
     parser.add_argument("--tracker-fn", help="module:function, a track(frames) -> landmarks")
@@ -334,7 +335,7 @@ def main() -> None:
     parser.add_argument("--sequence", type=Path, help="a folder written by 'aamtrack synth'")
     parser.add_argument("--skip-sweeps", action="store_true", help="only the --sequence")
     parser.add_argument("--no-cache", action="store_true", help="re-track even if cached")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     camera = CameraIntrinsics.from_fov(640, 480, 60.0)
     anchors = mean_head_glasses().anchor_points()
     lines: list[str] = []
@@ -360,6 +361,3 @@ def main() -> None:
     for line in lines:
         print(line)
 
-
-if __name__ == "__main__":
-    main()

@@ -1,6 +1,6 @@
 """Bench: ``aamtrack model prepare`` from an empty cache, phase by phase, wall and CPU time.
 
-Run: ``.venv/bin/python bench/bench_prepare.py [--no-classifier] [--runs 1] [--vs CHECKOUT]``
+Run: ``python -m bench prepare [--no-classifier] [--runs 1] [--vs CHECKOUT]``
 
 Each run is the whole command in a fresh, empty ``AAMTRACK_CACHE`` (a temporary folder,
 removed after), with ``OMP_NUM_THREADS=1`` and progress as lines. Its standard error is read
@@ -20,7 +20,6 @@ loaded machine's wall time says little, its CPU time more.
 
 from __future__ import annotations
 
-import argparse
 import os
 import re
 import resource
@@ -30,6 +29,8 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from bench import options
 
 HERE = Path(__file__).resolve().parents[1]
 TARGET_S = 180.0
@@ -110,8 +111,8 @@ def print_run(run: Run) -> None:
     print(f"  {'the whole command':<56}{run.wall:8.1f}{run.cpu:8.1f}")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> None:
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--no-classifier", action="store_true",
                         help="the fitting model only (the target is for both)")
     parser.add_argument("--runs", type=int, default=1)
@@ -119,7 +120,7 @@ def main() -> None:
     parser.add_argument("--keep", type=Path,
                         help="an empty folder to train this checkout's models in, kept after "
                              "(one run, no --vs)")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     if args.keep and (args.vs or args.runs > 1):
         parser.error("--keep trains one model: no --vs, one run")
     extra = ["--no-classifier"] if args.no_classifier else []
@@ -152,6 +153,3 @@ def main() -> None:
           f"{min(r.load[0] for r in runs[HERE]):.1f}-{max(r.load[1] for r in runs[HERE]):.1f})"
           + ("; a run failed" if failed else ""))
 
-
-if __name__ == "__main__":
-    main()

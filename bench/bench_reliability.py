@@ -1,6 +1,6 @@
 """Reliability bench: Ctrl-C at random moments, and how fast bad options are refused.
 
-Run: ``.venv/bin/python bench/bench_reliability.py [--runs 50] [--small-model]``
+Run: ``python -m bench reliability [--runs 50] [--small-model]``
 
 1. **Ctrl-C**: ``aamtrack run`` on ``single_face.mp4`` played forever with a
    Rerun recording and a message recording, in a process group of its own;
@@ -20,7 +20,6 @@ Run: ``.venv/bin/python bench/bench_reliability.py [--runs 50] [--small-model]``
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import random
@@ -38,6 +37,7 @@ import numpy as np
 from aamcore.config import REPO_ROOT, data_root
 from aamcore.expression.training import classifier_path
 from aamcore.fitting.training.prepare import default_model_path
+from bench import options
 from services.stack.recorder import read_recording
 
 RERUN = Path(sys.executable).with_name("rerun")
@@ -184,7 +184,7 @@ def option_errors(model: Path) -> bool:
 
 
 def hostile(runs: int, model: Path, classifier: Path) -> bool:
-    from reliability_cases import CASES
+    from bench.reliability_cases import CASES
 
     argv = ["--video", str(data_root() / "videos" / "single_face.mp4"), "--model", str(model),
             "--classifier", str(classifier), "--no-ar"]
@@ -199,8 +199,8 @@ def hostile(runs: int, model: Path, classifier: Path) -> bool:
     return ok
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--runs", type=int, default=50)
     parser.add_argument("--small-model", action="store_true",
                         help="the small test model (120 images), as the tests use")
@@ -208,7 +208,7 @@ def main() -> int:
     parser.add_argument("--hostile-runs", type=int, default=20)
     parser.add_argument("--only", choices=("options", "interrupts", "hostile"),
                         help="one section only")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     model = (default_model_path(max_images=10, limit=300) if args.small_model
              else default_model_path())
     classifier = classifier_path(model)
@@ -223,6 +223,3 @@ def main() -> int:
         ok &= interrupts(args.runs, model, classifier, args.seed)
     return 0 if ok else 1
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,6 +1,6 @@
 """Signing bench: what vouching for every message costs each service, at 640 x 360.
 
-Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_signing.py [--repeat 300]
+Run: ``OMP_NUM_THREADS=1 python -m bench signing [--repeat 300]
 [--stack-vs OTHER_CHECKOUT --pairs 4]``
 
 1. **Per message**: the time to sign each kind a service publishes (beyond encoding it)
@@ -20,7 +20,6 @@ Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_signing.py [--repeat 300]
 
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import subprocess
@@ -35,6 +34,7 @@ import msgpack
 import numpy as np
 
 from aamcore.config import data_root
+from bench import options
 from proto import Frame, Header, Message, Overlay, decode
 from proto import encode as plain_encode
 from proto.auth import Keyring
@@ -175,12 +175,12 @@ def throughput(other: Path, pairs: int) -> None:
           f"max {max(ratios):.3f}")
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--repeat", type=int, default=300)
     parser.add_argument("--stack-vs", type=Path, metavar="CHECKOUT")
     parser.add_argument("--pairs", type=int, default=4)
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     ok = per_message(args.repeat)
     if args.stack_vs is not None:
@@ -188,6 +188,3 @@ def main() -> int:
         throughput(args.stack_vs, args.pairs)
     return 0 if ok else 1
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())

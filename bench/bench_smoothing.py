@@ -1,6 +1,6 @@
 """Smoothing bench: jitter, accuracy and lag of the One Euro smoothing of landmarks and pose.
 
-Run: ``.venv/bin/python bench/bench_smoothing.py``
+Run: ``python -m bench smoothing``
 
 The same tracker (:class:`aamcore.tracker.FaceTracker`, the default model)
 with smoothing off and on, on:
@@ -21,8 +21,6 @@ unsmoothed on every sequence, lag reported.
 
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
 
 from aamcore.config import data_root, resolve_dataset
@@ -33,6 +31,7 @@ from aamcore.io.splits import split
 from aamcore.io.video import video_frames
 from aamcore.synth.motion import MotionSpec, generate
 from aamcore.tracker import FaceTracker
+from bench import options
 
 
 def run(tracker: FaceTracker, frames: list[np.ndarray], fps: float = 30.0) -> list:
@@ -93,10 +92,10 @@ def sequences(n_moving: int) -> list[tuple[str, list[np.ndarray], np.ndarray | N
     return out
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--moving", type=int, default=3, help="moving sequences")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     raw_tracker, smooth_tracker = (FaceTracker(classifier=False,
                                                landmark_smoothing=False, pose_smoothing=False),
                                      FaceTracker(classifier=False))
@@ -123,6 +122,3 @@ def main() -> int:
                   "(target within +5 %)")
     return 0 if ok else 1
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,6 +1,6 @@
 """Soak bench: every service's memory over a long run at the fastest pacing.
 
-Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_soak.py [--minutes 10] [--small-model]
+Run: ``OMP_NUM_THREADS=1 python -m bench soak [--minutes 10] [--small-model]
 [--no-rerun]``
 
 The default stack (detector, fitter, pose, expression, glasses renderer, Rerun logger
@@ -14,14 +14,13 @@ service after the first minute.
 
 from __future__ import annotations
 
-import argparse
 import os
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 from aamcore.config import data_root
+from bench import options
 from services.stack.launcher import Stack, prepared
 from services.stack.options import parse_run_args
 
@@ -42,11 +41,11 @@ def rss_mb(pid: int) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--minutes", type=float, default=10.0)
     parser.add_argument("--small-model", action="store_true")
     parser.add_argument("--no-rerun", action="store_true")
-    args = parser.parse_args(argv)
+    args = options.parse(parser, argv)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     video = data_root() / "videos" / "single_face.mp4"
     seconds = 60.0 * args.minutes
@@ -86,6 +85,3 @@ def main(argv: list[str] | None = None) -> int:
           f"{TARGET_GROWTH:.0%} for every service")
     return 0 if ok else 1
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -18,13 +18,12 @@
    each path (its status counts them), and the fits that carry the AAM's
    appearance, so that ``--warp gpu`` and ``--warp cpu`` compare two paths.
 
-Run: ``python bench/bench_stack.py [--loops 8] [--latency-loops 3] [--warp gpu|cpu]
+Run: ``python -m bench stack [--loops 8] [--latency-loops 3] [--warp gpu|cpu]
 [--small-model] [--no-ar] [--rerun]``. It prints the tables and PASS/FAIL lines.
 """
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import os
 import re
@@ -39,6 +38,7 @@ import numpy as np
 
 from aamcore.config import data_root
 from aamcore.expression.spec import STREAM_REFERENCE
+from bench import options
 from services.stack.launcher import Stack, prepared
 from services.stack.options import StackOptions, parse_run_args
 from services.stack.recorder import load_messages
@@ -164,7 +164,7 @@ def stage_table(result: RunResult) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--loops", type=int, default=8, help="plays of the video, throughput")
     parser.add_argument("--latency-loops", type=int, default=3, help="plays, latency run")
     parser.add_argument("--warp", choices=("auto", "gpu", "cpu"), default="auto")
@@ -173,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-ar", action="store_true", help="leave the glasses renderer out")
     parser.add_argument("--rerun", action="store_true", help="add the Rerun logger (.rrd)")
     parser.add_argument("--algorithm", help="the fitter's algorithm (default: the stack's)")
-    args = parser.parse_args(argv)
+    args = options.parse(parser, argv)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     video = data_root() / "videos" / "single_face.mp4"
     with tempfile.TemporaryDirectory() as tmp:
@@ -213,6 +213,3 @@ def main(argv: list[str] | None = None) -> int:
           f"(target <= {TARGET_P99_MS:g})")
     return 0 if ok_fps and ok_lat else 1
 
-
-if __name__ == "__main__":
-    sys.exit(main())

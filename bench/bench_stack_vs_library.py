@@ -22,12 +22,11 @@ that both sides decode.
 The load of the machine (``os.getloadavg``) is printed before and after: the figures are
 CPU time (what the machine's other work changes least) and wall time (what it changes most).
 
-Run: ``python bench/bench_stack_vs_library.py [--plays 3] [--warp cpu]``.
+Run: ``python -m bench stack-vs-library [--plays 3] [--warp cpu]``.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
@@ -39,10 +38,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_stack import RunResult, run  # noqa: E402
-
 from aamcore.config import data_root  # noqa: E402
+from bench import options
+from bench.bench_stack import RunResult, run  # noqa: E402
 from services.stack.options import parse_run_args  # noqa: E402
 
 TARGET_RATIO = 1.5
@@ -149,10 +147,10 @@ def verdict(ok: bool, what: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = options.parser(__doc__, __name__)
     parser.add_argument("--plays", type=int, default=3, help="forward-backward plays, long clip")
     parser.add_argument("--warp", choices=("auto", "gpu", "cpu"), default="auto")
-    args = parser.parse_args(argv)
+    args = options.parse(parser, argv)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     print(f"load before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}; "
           f"{os.cpu_count()} cores")
@@ -198,6 +196,3 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(checks))
     return 0 if all(c.startswith("MET") for c in checks) else 1
 
-
-if __name__ == "__main__":
-    sys.exit(main())

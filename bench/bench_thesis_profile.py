@@ -1,6 +1,6 @@
 """Bench: the thesis's pipeline as a profile, beside the default one.
 
-Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_thesis_profile.py [--model FILE]
+Run: ``OMP_NUM_THREADS=1 python -m bench thesis-profile [--model FILE]
 [--svm] [--grid coarse|full]``
 
 1. **Expression, JAFFE protocol** (as ``bench_expression.py``: leave one poser
@@ -18,9 +18,7 @@ Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_thesis_profile.py [--model
 
 from __future__ import annotations
 
-import argparse
 import os
-import sys
 import time
 from collections import Counter
 from pathlib import Path
@@ -43,9 +41,9 @@ from aamcore.evaluation.expression_variants import (  # noqa: E402
     variant_named,
 )
 from aamcore.expression.svm import SVM_GRIDS  # noqa: E402
-from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
 from aamcore.profiles import profile_named  # noqa: E402
 from aamcore.tracker import FaceTracker  # noqa: E402
+from bench import options
 
 
 def expression_rows(model: Path, svm: bool, grid: str) -> None:
@@ -103,18 +101,14 @@ def tracker_iterations(model: Path, profile: str, video: Path) -> list[int]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--model", type=Path, help="fitting model (default: the default one)")
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--svm", action="store_true", help="also the thesis's RBF SVM rows")
     parser.add_argument("--grid", choices=tuple(SVM_GRIDS), default="coarse")
     parser.add_argument("--no-expression", action="store_true", help="the video rows only")
-    args = parser.parse_args(argv)
-    model = args.model or default_model_path()
+    args = options.parse(parser, argv)
+    model = options.model_path(args)
     if not args.no_expression:
         expression_rows(model, args.svm, args.grid)
     video_rows(model)
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

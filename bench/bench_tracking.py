@@ -1,6 +1,6 @@
 """Tracking bench: the stack's tracker on a real video and on generated videos with exact landmarks.
 
-Run: ``OMP_NUM_THREADS=1 .venv/bin/python bench/bench_tracking.py [--algorithm NAME]
+Run: ``OMP_NUM_THREADS=1 python -m bench tracking [--algorithm NAME]
 [--model FILE] [--per-set 4] [--frames 150] [--nonrigid 2] [--schemes A B ...] [--parts-only]
 [--no-refit] [--via-stack [N]] [--regenerate]``
 
@@ -86,12 +86,11 @@ from aamcore.io.landmarks import LandmarkScheme  # noqa: E402
 from aamcore.io.splits import set_name_of, split  # noqa: E402
 from aamcore.io.video import video_frames  # noqa: E402
 from aamcore.tracker import FaceResult, FaceTracker  # noqa: E402
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from tracking_clips import NONRIGID, Clip, generated_clips, nonrigid_clips  # noqa: E402
-from tracking_parts import HEADER as PARTS_HEADER  # noqa: E402
-from tracking_parts import Pool, parse_scheme, pool_row, run_scheme  # noqa: E402
-from tracking_scores import REACQUIRED_NME, Score, Track, pooled, score, track_of  # noqa: E402
+from bench import options
+from bench.tracking_clips import NONRIGID, Clip, generated_clips, nonrigid_clips  # noqa: E402
+from bench.tracking_parts import HEADER as PARTS_HEADER  # noqa: E402
+from bench.tracking_parts import Pool, parse_scheme, pool_row, run_scheme  # noqa: E402
+from bench.tracking_scores import REACQUIRED_NME, Score, Track, pooled, score, track_of  # noqa: E402
 
 TARGET_GOOD, TARGET_NME, TARGET_REACQUIRE = 0.98, 0.035, 5
 SCHEMES = ("track", "refit:failed=1", "refit:every=6", "previous", "truth")
@@ -222,12 +221,10 @@ def agreement(library: Track, stack: Track) -> str:
             f"largest landmark difference {gap:.4f} px over {len(both)} frames with a fit in both")
 
 
-def parse_args() -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--algorithm", choices=list(ALGORITHMS), default=defaults.ALGORITHM,
                         help=f"fitting algorithm (default {defaults.ALGORITHM})")
-    parser.add_argument("--model", type=Path,
-                        help="fitting model file (default: the stack's default model)")
     parser.add_argument("--split-model", action="store_true",
                         help="instead, the default model's recipe trained on the LFPW split's "
                              "training part only (trained once, cached)")
@@ -247,7 +244,7 @@ def parse_args() -> argparse.Namespace:
                              "(Refit NEVER)")
     parser.add_argument("--parts-only", action="store_true",
                         help="only the per-part comparison of the schemes")
-    return parser.parse_args()
+    return options.parse(parser, argv)
 
 
 def split_model_path() -> Path:
@@ -279,14 +276,8 @@ def split_model_path() -> Path:
 
 def load_model(args: argparse.Namespace) -> tuple[Path, FittingModel]:
     """The model of ``--model``, ``--split-model`` or the default model."""
-    if args.model is not None:
-        path = args.model
-    elif args.split_model:
-        path = split_model_path()
-    else:
-        from aamcore.fitting.training.prepare import default_model_path
-
-        path = default_model_path()
+    path = split_model_path() if args.split_model and args.model is None else (
+        options.model_path(args))
     return path, FittingModel.load(path)
 
 
@@ -339,8 +330,8 @@ def via_stack(clips: list[Clip], tracks: dict[str, Track], model_path: Path, alg
                   f"p95 {np.percentile(latency, 95):.1f} ms; run {wall:.1f} s with start and stop")
 
 
-def main() -> int:
-    args = parse_args()
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
     cv2.setNumThreads(1)
     start = time.perf_counter()
     with threadpool_limits(1):
@@ -401,6 +392,3 @@ def compare_parts(fitter: Fitter, rigid: list[Clip], nonrigid: list[Clip], names
         for s in schemes:
             print(pool_row(s.name, pools[s.name]))
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,6 +1,6 @@
 """The default method against dlib's 68-point shape predictor, in one process.
 
-Run: ``PYTHONPATH=. OMP_NUM_THREADS=1 .venv/bin/python bench/bench_vs_dlib.py [--model FILE]``
+Run: ``PYTHONPATH=. OMP_NUM_THREADS=1 python -m bench vs-dlib [--model FILE]``
 
 - Stills: every held-out face of LFPW, HELEN and AFW (the project's split),
   both systems started from the same Haar box (the default detector,
@@ -30,7 +30,6 @@ it was trained on.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import time
@@ -50,11 +49,11 @@ from aamcore.evaluation.fits import haar_box  # noqa: E402
 from aamcore.evaluation.metrics import nme, part_nmes  # noqa: E402
 from aamcore.fitting.fitter import Fitter  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
-from aamcore.fitting.training.prepare import default_model_path  # noqa: E402
 from aamcore.io import load_annotated_folder  # noqa: E402
 from aamcore.io.landmarks import IBUG68  # noqa: E402
 from aamcore.io.splits import SPLIT_SETS, split  # noqa: E402
 from aamcore.io.video import video_frames  # noqa: E402
+from bench import options
 
 PREDICTOR = Path(os.environ.get(
     "DLIB_PREDICTOR", Path.home() / ".cache/aamtrack/dlib/shape_predictor_68_face_landmarks.dat"))
@@ -249,15 +248,14 @@ def video(fitter: Fitter, predictor, maps, passes: int) -> float:
     return float(md / mf)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--model", type=Path, help="fitting model (default: the default one)")
+def main(argv: list[str] | None = None) -> None:
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--passes", type=int, default=5)
     parser.add_argument("--video-only", action="store_true", help="skip the stills")
     parser.add_argument("--repeats", type=int, default=1, help="video runs (the machine is noisy)")
-    args = parser.parse_args()
+    args = options.parse(parser, argv)
     cv2.setNumThreads(1)
-    model = FittingModel.load(args.model or default_model_path())
+    model = FittingModel.load(options.model_path(args))
     fitter = Fitter(model, "local-binary")
     predictor = dlib.shape_predictor(str(PREDICTOR))
     detector = HaarFaceDetector()
@@ -275,6 +273,3 @@ def main() -> None:
     print(f"\nvideo rate ratios ours (Fitter) / dlib over {args.repeats} run(s): "
           f"{', '.join(f'{r:.2f}' for r in ratios)}; median {np.median(ratios):.2f}x")
 
-
-if __name__ == "__main__":
-    main()

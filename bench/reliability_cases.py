@@ -31,8 +31,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from reliability_attacks import ATTACKS
 
+from bench.reliability_attacks import ATTACKS
 from proto import EndOfStream, Fit, Frame, Header, encode
 from services.bus.connection import BusOptions
 from services.bus.qos import MUST_ARRIVE

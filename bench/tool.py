@@ -62,7 +62,12 @@ def run(name: str, argv: list[str]) -> int:
     out = argparse.ArgumentParser(add_help=False)
     out.add_argument("--json", type=Path)
     json_path = out.parse_known_args(argv)[0].json
-    module = importlib.import_module(module_of(name))
+    try:
+        module = importlib.import_module(module_of(name))
+    except ModuleNotFoundError as exc:
+        print(f"python -m bench {name}: needs {exc.name}, which is not installed (the peers: "
+              "pip install -e '.[bench]')", file=sys.stderr)
+        return 2
     declared = getattr(module, "TARGETS", ())
     targets.CHECKS.clear()
     load, start = os.getloadavg()[0], time.perf_counter()
