@@ -28,6 +28,7 @@ import time
 
 from aamcore.config import REPO_ROOT
 from bench import options
+from bench.targets import Target
 
 ATTACKS = {
     "traced before hardening": "tests/services/stack/test_key_theft.py::"
@@ -44,6 +45,8 @@ ATTACKS = {
     "test_frames_a_dead_fitter_missed_stay_unanswered_whatever_is_replayed",
 }
 """Attack name -> the test that carries it out and checks it."""
+EVERY_RUN = Target("every attack passes every run", "==", True)
+TARGETS = (EVERY_RUN,)
 
 
 def attack(node: str) -> tuple[bool, float, str]:
@@ -77,7 +80,5 @@ def main(argv: list[str] | None = None) -> int:
         for good, _, why in results:
             if not good:
                 print(f"    {why[:200]}")
-    print(f"{'PASS' if ok else 'FAIL'}: every attack passes every run "
-          f"(load average {os.getloadavg()[0]:.1f} at the end)")
-    return 0 if ok else 1
+    return 0 if EVERY_RUN.check(ok) else 1
 

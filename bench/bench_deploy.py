@@ -28,9 +28,13 @@ import cv2
 
 from aamcore.config import REPO_ROOT, data_root
 from bench import options
+from bench.targets import Target
 
 ENV = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO_ROOT)}
 COMPUTE = ("detector", "fitter", "pose", "expression")
+EVERY_FRAME = Target("every frame of the clip posed on both hosts in every mode, both "
+                     "launchers exit 0", "==", True)
+TARGETS = (EVERY_FRAME,)
 
 
 def ping_pong_clip(path: Path, frames: int) -> Path:
@@ -172,7 +176,5 @@ def main(argv: list[str] | None = None) -> int:
                       f"{'/'.join(map(str, row['compute'])):<23}"
                       f"{','.join(str(c) for c in row['codes'].values()):<12}"
                       f"{row['wall']:>7.1f}", flush=True)
-    print(f"{'PASS' if ok else 'FAIL'}: every frame of the clip posed on both hosts in every "
-          "mode, both launchers exit 0")
-    return 0 if ok else 1
+    return 0 if EVERY_FRAME.check(ok) else 1
 

@@ -20,10 +20,8 @@ streams >= 80 % of frames right whatever the opening; JAFFE leave one poser out
 
 Run (from the repository root, ``AAMTRACK_DATA`` set)::
 
-    OMP_NUM_THREADS=1 PYTHONPATH=. python -m bench expression
-        [--fit-model FILE] [--fer] [--streams] [--cross] [--select] [--performers 01,14]
-
-Exit status 0 when every target measured is met.
+    OMP_NUM_THREADS=1 python -m bench expression
+        [--model FILE] [--fer] [--streams] [--cross] [--select] [--performers 01,14]
 """
 
 from __future__ import annotations
@@ -47,8 +45,20 @@ from aamcore.expression.classifier_file import ExpressionClassifier
 from aamcore.expression.training import RECIPE, classifier_path
 from aamcore.io.expression_sets import EXPRESSION_SETS
 from bench import options
+from bench.targets import Target
 
-TARGET_MS = 3.0
+TAIWAN_RIGHT = Target("Taiwanese held out (fresh): labelled right", ">=", 75.0, "%")
+TAIWAN_LABELLED = Target("Taiwanese held out (fresh): faces labelled", ">=", 95.0, "%")
+TAIWAN_RECALL = Target("Taiwanese held out (fresh): worst class recall", ">=", 50.0, "%")
+LFW_RIGHT = Target("LFW held out (fresh): labelled right", ">=", 65.0, "%")
+LFW_RECALL = Target("LFW held out (fresh): mean recall", ">=", 0.5)
+JAFFE = Target("JAFFE leave one poser out (session): all faces right", ">=", 85.0, "%")
+SERVED = Target("reference served as trained", "==", True)
+FACE_MS = Target("gate, features, reference and classifier: median CPU ms per face", "<",
+                 3.0, "ms")
+STREAMS = Target("stream-order sequences: worst opening's frames right", ">=", 80.0, "%")
+TARGETS = (TAIWAN_RIGHT, TAIWAN_LABELLED, TAIWAN_RECALL, LFW_RIGHT, LFW_RECALL, JAFFE, SERVED,
+           FACE_MS, STREAMS)
 
 
 def say(line: str) -> None:
@@ -65,10 +75,8 @@ def fer_peer() -> tuple[str, object]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the bench, print the tables and the PASS/FAIL lines; 0 if the targets are met."""
-    parser = options.parser(__doc__, __name__)
-    parser.add_argument("--fit-model", type=Path, metavar="FILE",
-                        help="fitting model (default: the stack's, trained on first use)")
+    """Run the bench, print the tables and check the targets; 0 if they are met."""
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--fer", action="store_true", help="the fer peer on the same faces")
     parser.add_argument("--streams", action="store_true", help="the stream-order sequences "
                         "through FaceTracker (several minutes)")
@@ -79,9 +87,7 @@ def main(argv: list[str] | None = None) -> int:
                         "validation split of the training people")
     args = options.parse(parser, argv)
     start = time.perf_counter()
-    from aamcore.fitting.training.prepare import default_model_path
-
-    model = args.fit_model or default_model_path()
+    model = options.model_path(args)
     bench = bench_faces(model, EXPRESSION_SETS, say=say)
     if args.select:
         select(bench)
@@ -90,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
     classifier = ExpressionClassifier.load(path)
     peer = fer_peer() if args.fer else None
     memo: dict[str, str | None] = {}
-    checks: list[tuple[str, bool]] = []
+    checks: list[bool] = []
     print(f"model {Path(model).name}, classifier {path.name} "
           f"({classifier.info.get('samples')} training faces)\n")
     taiwan, lfw = held_out_tables(bench, classifier, peer, memo)  # type: ignore[arg-type]
@@ -98,20 +104,16 @@ def main(argv: list[str] | None = None) -> int:
         print(format_table(table.title, table.rows, table.notes) + "\n")
     fresh = next(iter(taiwan.rows.values()))
     worst = min(r / n for r, n in fresh.recalls().values() if n)
-    checks += [(f"Taiwanese held out: {100 * fresh.labelled_accuracy:.1f} % of labelled right "
-                f"(>= 75), {100 * fresh.share_labelled:.1f} % labelled (>= 95), worst class "
-                f"recall {100 * worst:.1f} % (>= 50)",
-                fresh.labelled_accuracy >= 0.75 and fresh.share_labelled >= 0.95
-                and worst >= 0.5)]
+    checks += [TAIWAN_RIGHT.check(100 * fresh.labelled_accuracy),
+               TAIWAN_LABELLED.check(100 * fresh.share_labelled),
+               TAIWAN_RECALL.check(100 * worst)]
     fresh = next(iter(lfw.rows.values()))
-    checks += [(f"LFW held out: {100 * fresh.labelled_accuracy:.1f} % of labelled right (>= 65),"
-                f" mean recall {fresh.mean_recall:.3f} (>= 0.50)",
-                fresh.labelled_accuracy >= 0.65 and fresh.mean_recall >= 0.5)]
+    checks += [LFW_RIGHT.check(100 * fresh.labelled_accuracy),
+               LFW_RECALL.check(fresh.mean_recall)]
     jaffe = jaffe_lopo_table(bench, RECIPE, peer, memo, say)  # type: ignore[arg-type]
     print(format_table(jaffe.title, jaffe.rows, jaffe.notes) + "\n")
     session = list(jaffe.rows.values())[1]
-    checks += [(f"JAFFE leave one poser out (session): {100 * session.overall_rate:.1f} % of "
-                f"all {session.n} faces (>= 85)", session.overall_rate >= 0.85)]
+    checks += [JAFFE.check(100 * session.overall_rate, f"{session.n} faces")]
     if args.cross:
         cross = cross_set_table(bench, RECIPE, EXPRESSION_SETS)
         print(format_table(cross.title, cross.rows, cross.notes) + "\n")
@@ -120,23 +122,19 @@ def main(argv: list[str] | None = None) -> int:
           f"ExpressionPipeline) against as trained (the median of the same faces): "
           f"{match.people} people, {match.faces} faces, largest difference "
           f"{match.max_difference:.2e}, fused labels alike {match.agree} of {match.faces}\n")
-    checks += [("reference served as trained", match.agree == match.faces
-                and match.max_difference < 1e-4)]
+    checks += [SERVED.check(match.agree == match.faces and match.max_difference < 1e-4)]
     ms = process_ms(bench, classifier)
     print(f"gate, features, reference and classifier, CPU ms per face (saved classifier): "
           f"median {np.median(ms):.2f}, mean {ms.mean():.2f}, p95 {np.percentile(ms, 95):.2f}")
-    checks += [(f"median {np.median(ms):.2f} ms per face (< {TARGET_MS:g})",
-                float(np.median(ms)) < TARGET_MS)]
+    checks += [FACE_MS.check(float(np.median(ms)))]
     if args.streams:
-        checks += streams(bench, model, path, peer, args.performers)
-    for text, ok in checks:
-        print(f"{'PASS' if ok else 'FAIL'} {text}")
+        checks += [streams(bench, model, path, peer, args.performers)]
     print(f"\nbench time {time.perf_counter() - start:.0f} s")
-    return 0 if all(ok for _, ok in checks) else 1
+    return 0 if all(checks) else 1
 
 
 def streams(bench: object, model: Path, path: Path, peer: object, performers: str | None
-            ) -> list[tuple[str, bool]]:
+            ) -> bool:
     """The stream-order sequences' table and their check."""
     from bench.expression_streams import DEPLOYED_ROW, format_streams, run_streams
 
@@ -146,7 +144,7 @@ def streams(bench: object, model: Path, path: Path, peer: object, performers: st
           "frame without a label is wrong)")
     print(format_streams(scores) + "\n")
     worst = min(scores.rate(DEPLOYED_ROW, o) for o in scores.right[DEPLOYED_ROW])
-    return [(f"streams: every opening >= 80 % (worst {100 * worst:.1f} %)", worst >= 0.8)]
+    return STREAMS.check(100 * worst)
 
 
 def select(bench: object) -> None:

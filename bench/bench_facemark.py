@@ -59,6 +59,11 @@ from aamcore.io.landmarks import LandmarkScheme
 from aamcore.model.cache import cache_key, cached_file
 from aamcore.model.training import TrainConfig, train_aam
 from bench import options
+from bench.targets import Target
+
+NME_RATIO = Target("mean NME, aamtrack / OpenCV FacemarkAAM", "<=", 1.0, "x")
+TIME_RATIO = Target("median time per fit, aamtrack / OpenCV FacemarkAAM", "<=", 1.0, "x")
+TARGETS = (NME_RATIO, TIME_RATIO)
 
 RUNNER = Path(__file__).resolve().parent / "facemark_runner.py"
 REQUIREMENTS = ("opencv-contrib-python-headless>=4.10,<5", "numpy")
@@ -338,14 +343,7 @@ def main(argv: list[str] | None = None) -> int:
     best, ref = metrics(ours[0]), metrics(theirs)
     nme_ratio = ratio(best["NME mean"], ref["NME mean"])
     time_ratio = ratio(best["time per fit, median ms"], ref["time per fit, median ms"])
-    print()
-    print(f"RATIO NME aamtrack/opencv: {nme_ratio:.3f}")
-    print(f"RATIO time aamtrack/opencv: {time_ratio:.4f}")
-    verdict = "PASS" if nme_ratio <= 1.0 and time_ratio <= 1.0 else "FAIL"
-    print(
-        f"{verdict}: aamtrack {ALGORITHMS[0]} at least as accurate (mean NME) and as fast "
-        f"(median time per fit) as OpenCV FacemarkAAM on the same split "
-        f"[bench {time.perf_counter() - start:.0f} s]"
-    )
-    return 0
+    print(f"\nbench {time.perf_counter() - start:.0f} s")
+    ok = NME_RATIO.check(nme_ratio, f"{ALGORITHMS[0]}, the same split")
+    return 0 if TIME_RATIO.check(time_ratio, f"{ALGORITHMS[0]}") and ok else 1
 

@@ -1,6 +1,6 @@
 """What each failure test keeps and rejects, on held-out faces, far-off starts and no face.
 
-Run: ``PYTHONPATH=. python -m bench failure-tests [--model FILE]``
+Run: ``python -m bench failure-tests [--model FILE]``
 
 1. The learned quality test of the default method (threshold stored in the
    model), per held-out set of LFPW, HELEN and AFW: its Haar fits (good ones:

@@ -16,7 +16,7 @@ Usage::
 
     python -m bench faults [--overload-s 90] [--warp gpu|cpu]
 
-Prints a table per part and PASS/FAIL lines; exits 1 if a target is missed.
+Prints a table per part; exits 1 if a target is missed.
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ import numpy as np
 
 from aamcore.config import data_root
 from bench import options
+from bench.targets import Target
 from services.bus.connection import BusOptions
 from services.bus.session import Service
 from services.stack.launcher import Stack, free_port, prepared
@@ -44,8 +45,13 @@ from services.stack.options import StackOptions, parse_run_args
 
 MODEL_LIMIT = 300
 MODEL_IMAGES = 10
-RECOVERY_TARGET_S = 2.0
-MEMORY_GROWTH_TARGET = 0.05
+RECOVERY = Target("a killed service back (its liveliness token again)", "<", 2.0, "s")
+FINISHED = Target("the run reaches its end of stream after the kills", "==", True)
+GROWTH = Target("memory growth after warm-up, worst process, overload", "<", 5.0, "%")
+BOUNDED = Target("pose latency bounded: second-half p99 < 2 x first-half's + 100 ms", "==",
+                 True)
+ACCOUNTED = Target("every frame answered or counted as dropped by the fitter", "==", True)
+TARGETS = (RECOVERY, FINISHED, GROWTH, BOUNDED, ACCOUNTED)
 KILLED = ("detector", "fitter", "pose", "expression", "ar")
 RESULT_OF = {"detector": "fit", "fitter": "fit", "pose": "pose", "expression": "expression",
              "ar": "overlay"}
@@ -224,7 +230,7 @@ def growth(series: list[tuple[float, int]], warmup: float) -> tuple[float, float
 
 
 def report_kills(rows: list[dict[str, Any]], summary: dict[str, Any]) -> bool:
-    """Print part 1's table and PASS/FAIL lines; whether every target was met."""
+    """Print part 1's table and check its targets; whether every one was met."""
     ok = True
     print("## kill -9 each service (video at its frame rate, looped)")
     print(f"{'service':<11} {'recovery s':>10} {'frames down':>11} {'dropped':>8} "
@@ -237,15 +243,8 @@ def report_kills(rows: list[dict[str, Any]], summary: dict[str, Any]) -> bool:
           f"(end of stream says {summary['total_frames']}), frames with a fit {fits}, "
           f"events: {'; '.join(summary['events'])}")
     for r in rows:
-        good = r["recovery_s"] < RECOVERY_TARGET_S
-        ok &= good
-        print(f"{'PASS' if good else 'FAIL'}: {r['service']} back in {r['recovery_s']:.2f} s "
-              f"(target < {RECOVERY_TARGET_S} s)")
-    finished = summary["outcome"] == "done"
-    ok &= finished
-    print(f"{'PASS' if finished else 'FAIL'}: the run reached its end of stream after the kills")
-
-    return ok
+        ok &= RECOVERY.check(r["recovery_s"], r["service"])
+    return FINISHED.check(summary["outcome"] == "done") and ok
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -283,19 +282,12 @@ def main(argv: list[str] | None = None) -> int:
     fitter = s["services"].get("fitter", {})
     print(f"frames {s['total_frames']}, with a fit {s['frames_with']['fit']}, fitter dropped "
           f"{fitter.get('dropped')} (counted), in {fitter.get('frames_in')}")
-    good = worst < MEMORY_GROWTH_TARGET
-    ok &= good
-    print(f"{'PASS' if good else 'FAIL'}: memory growth after warm-up {100 * worst:.1f}% "
-          f"(target < {100 * MEMORY_GROWTH_TARGET:.0f}%)")
+    ok &= GROWTH.check(100 * worst)
     if half:
-        bounded = p99b < 2 * p99a + 100
-        ok &= bounded
-        print(f"{'PASS' if bounded else 'FAIL'}: latency bounded (second-half p99 {p99b:.0f} "
-              f"ms vs first-half {p99a:.0f} ms)")
+        ok &= BOUNDED.check(bool(p99b < 2 * p99a + 100),
+                            f"second-half p99 {p99b:.0f} ms, first-half {p99a:.0f} ms")
     accounted = bool(s["total_frames"]) and (
         fitter.get("frames_in", 0) + fitter.get("dropped", 0) >= s["total_frames"])
-    ok &= accounted
-    print(f"{'PASS' if accounted else 'FAIL'}: every frame answered or counted as dropped "
-          f"by the fitter")
+    ok &= ACCOUNTED.check(accounted)
     return 0 if ok else 1
 

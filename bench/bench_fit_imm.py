@@ -30,6 +30,10 @@ from aamcore.fitting.training.prepare import train_fitting_model
 from aamcore.io import load_annotated_folder
 from aamcore.model.training import TrainConfig, train_aam
 from bench import options
+from bench.targets import Target
+
+FAILURES = Target("worst failure rate for displacements up to 40 px", "<=", 5.0, "%")
+TARGETS = (FAILURES,)
 
 
 def worst(rates: dict, key: str, limit: float = 40.0) -> float:
@@ -37,7 +41,7 @@ def worst(rates: dict, key: str, limit: float = 40.0) -> float:
     return max(c[key] for axis in rates.values() for o, c in axis.items() if abs(o) <= limit)
 
 
-def main(argv: list[str] | None = None) -> None:
+def main(argv: list[str] | None = None) -> int:
     parser = options.parser(__doc__, __name__)
     parser.add_argument("--algorithm", choices=ALGORITHMS, default="multi-resolution")
     parser.add_argument("--folds", type=int, default=4)
@@ -72,12 +76,9 @@ def main(argv: list[str] | None = None) -> None:
         f"\nall fits: NME mean {stats['mean']:.4f} median {stats['median']:.4f}, "
         f"{1000 * stats['mean_seconds']:.1f} ms per fit, {stats['mean_iterations']:.1f} iterations"
     )
-    print()
+    ok = True
     for kind in ("cog", "haar"):
         for key, label in (("eq72", "eq. 7.2"), ("nme", "NME > 0.10")):
-            w = worst(rates[kind], key)
-            print(
-                f"{'PASS' if w <= 5.0 else 'FAIL'}: {kind} start, {label}: worst failure "
-                f"{w:.2f} % for displacements up to 40 px (target <= 5 %)"
-            )
+            ok &= FAILURES.check(worst(rates[kind], key), f"{kind} start, failed by {label}")
+    return 0 if ok else 1
 

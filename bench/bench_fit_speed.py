@@ -1,6 +1,6 @@
 """Fitting speed on one core: tracking from the previous frame and starting from a Haar box.
 
-Run: ``PYTHONPATH=. python -m bench fit-speed [--model FILE] [--letterbox]``
+Run: ``python -m bench fit-speed [--model FILE] [--letterbox]``
 
 Uses the stack's default model (trained on the training splits of LFPW, HELEN
 and AFW, cached on first use) or ``--model``, on the frames of
@@ -42,6 +42,17 @@ from aamcore.fitting.fitter import Fitter  # noqa: E402
 from aamcore.fitting.model import FittingModel  # noqa: E402
 from aamcore.io.video import video_frames  # noqa: E402
 from bench import options
+from bench.targets import Target
+
+TRACK = Target("default method tracking, fits/s on one core", ">=", 1000.0, "fits/s")
+BOX = Target("default method from a Haar box, fits/s on one core", ">=", 50.0, "fits/s")
+APPEARANCE = Target("the AAM's appearance and occlusion flags, added per tracked frame", "<=",
+                    0.5, "ms")
+VS_DLIB = Target("tracking with appearance and flags against dlib's rate, same run", ">=", 2.2,
+                 "x")
+SDM_TRACK = Target("supervised-descent (the AAM methods' best) tracking, fits/s", ">=", 300.0,
+                   "fits/s")
+TARGETS = (TRACK, BOX, APPEARANCE, VS_DLIB, SDM_TRACK)
 
 
 def letterbox(frame: np.ndarray, size: tuple[int, int] = (640, 480)) -> np.ndarray:
@@ -210,7 +221,7 @@ def versus_dlib(model: FittingModel, frames: list[np.ndarray], box: np.ndarray,
     return dlibs / mine
 
 
-def main(argv: list[str] | None = None) -> None:
+def main(argv: list[str] | None = None) -> int:
     parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--letterbox", action="store_true", help="frames on a 640x480 canvas")
     parser.add_argument("--methods", nargs="+", default=list(ALGORITHMS),
@@ -265,17 +276,11 @@ def main(argv: list[str] | None = None) -> None:
     part_split(model, frames[start:], first)
     ratio = versus_dlib(model, frames[start:], first)
     track, box_rate = results[defaults.ALGORITHM]
-    print(f"\nfor the default method ({defaults.ALGORITHM}):")
-    print(f"{'PASS' if track >= 1000 else 'FAIL'}: tracking {track:.0f} fits/s (target >= 1000)")
-    print(f"{'PASS' if box_rate >= 50 else 'FAIL'}: from a Haar box {box_rate:.0f} fits/s "
-          "(target >= 50)")
-    print(f"{'PASS' if added <= 0.5 else 'FAIL'}: the AAM's appearance and occlusion flags add "
-          f"{added:.3f} ms per tracked frame (median; target <= 0.5)")
+    ok = TRACK.check(track, defaults.ALGORITHM) & BOX.check(box_rate, defaults.ALGORITHM)
+    ok &= APPEARANCE.check(added, "median")
     if ratio is not None:
-        print(f"{'PASS' if ratio >= 2.2 else 'FAIL'}: tracking with appearance and flags "
-              f"{ratio:.2f}x dlib's rate in the same run (target >= 2.2x)")
+        ok &= VS_DLIB.check(ratio)
     if "supervised-descent" in results:
-        track = results["supervised-descent"][0]
-        print(f"{'PASS' if track >= 300 else 'FAIL'}: supervised-descent (the AAM methods' best) "
-              f"tracks {track:.0f} fits/s (target >= 300)")
+        ok &= SDM_TRACK.check(results["supervised-descent"][0])
+    return 0 if ok else 1
 

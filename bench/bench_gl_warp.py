@@ -34,6 +34,16 @@ from aamcore.model.aam import AAM
 from aamcore.model.training import TrainConfig, train_aam
 from aamcore.warp.gl import GLWarp
 from aamcore.warp.worker import GLWarpWorker
+from bench import options
+from bench.targets import Target
+
+AGREE_MEAN = Target("GL warp against the CPU warp: mean difference, worst model", "<", 1.0,
+                    "grey levels")
+AGREE_MAX = Target("GL warp against the CPU warp: largest difference", "<=", 4.0,
+                   "grey levels")
+ROUND_TRIP = Target("GL worker thread round trip", "<", 0.2, "ms")
+AR_RENDER = Target("AR glasses render per 640x480 frame", "<", 33.0, "ms")
+TARGETS = (AGREE_MEAN, AGREE_MAX, ROUND_TRIP, AR_RENDER)
 
 W, H = 640, 480
 REPEATS = 300
@@ -149,22 +159,14 @@ def bench_ar(ctx: moderngl.Context) -> float:
     return result
 
 
-def main(argv: list[str] | None = None) -> None:
+def main(argv: list[str] | None = None) -> int:
+    options.parse(options.parser(__doc__, __name__), argv)
     cv2.setNumThreads(2)
     ctx = moderngl.create_standalone_context(backend="egl")
     print(f"OpenGL renderer: {ctx.info['GL_RENDERER']}\n")
     worst_mean, worst_max, round_trip = bench_warps(ctx)
     ar_ms = bench_ar(ctx)
-    print()
-    checks = [
-        (worst_mean < 1.0 and worst_max <= 4,
-         f"GL warp agrees with the CPU warp: mean {worst_mean:.3f}, max {worst_max:.0f} grey "
-         "levels (target mean < 1, max <= 4)"),
-        (round_trip < 0.2,
-         f"worker thread round trip {round_trip:.3f} ms (target < 0.2 ms)"),
-        (ar_ms < 33.0, f"AR glasses render {ar_ms:.1f} ms per 640x480 frame (target < 33 ms)"),
-    ]
-    for ok, text in checks:
-        print(f"{'PASS' if ok else 'FAIL'}: {text}")
-    print("PASS" if all(ok for ok, _ in checks) else "FAIL")
+    ok = AGREE_MEAN.check(worst_mean) & AGREE_MAX.check(worst_max)
+    ok &= ROUND_TRIP.check(round_trip) & AR_RENDER.check(ar_ms)
+    return 0 if ok else 1
 

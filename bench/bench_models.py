@@ -4,8 +4,8 @@ Run: ``python -m bench models``
 
 Prints training time and model size for IMM Frontal and the 805 LFPW images,
 and the warp time into the reference frame from a 640x480 colour frame at about
-10k and 30k reference pixels, with PASS/FAIL against the targets (train LFPW
-under 90 s; warp under 0.5 ms at about 10k pixels).
+10k and 30k reference pixels, against the targets (train LFPW under 90 s; warp under
+0.5 ms at about 10k pixels).
 """
 
 from __future__ import annotations
@@ -21,6 +21,12 @@ from aamcore.config import resolve_dataset
 from aamcore.io import load_annotated_folder
 from aamcore.model.file import save_model
 from aamcore.model.training import TrainConfig, train_aam
+from bench import options
+from bench.targets import Target
+
+TRAIN_LFPW = Target("train the AAM on LFPW's 805 images", "<", 90.0, "s")
+WARP_10K = Target("warp into a ~10k-pixel reference frame from 640x480", "<", 0.5, "ms")
+TARGETS = (TRAIN_LFPW, WARP_10K)
 
 
 def bench_training() -> float:
@@ -70,17 +76,11 @@ def bench_warp() -> dict[int, float]:
     return results
 
 
-def main(argv: list[str] | None = None) -> None:
+def main(argv: list[str] | None = None) -> int:
+    options.parse(options.parser(__doc__, __name__), argv)
     cv2.setNumThreads(2)
     lfpw = bench_training()
     warp = bench_warp()
-    print()
-    print(
-        f"{'PASS' if lfpw < 90 else 'FAIL'}: train LFPW (805 images) in {lfpw:.1f} s "
-        f"(target < 90 s)"
-    )
-    print(
-        f"{'PASS' if warp[10_000] < 0.5 else 'FAIL'}: warp at ~10k px in "
-        f"{warp[10_000]:.3f} ms (target < 0.5 ms)"
-    )
+    ok = TRAIN_LFPW.check(lfpw) & WARP_10K.check(warp[10_000], "median")
+    return 0 if ok else 1
 

@@ -2,7 +2,7 @@
 
 Run (from the repository root, ``AAMTRACK_DATA`` set)::
 
-    PYTHONPATH=. python -m bench pose-yaw [--tracker annotated,aam]
+    python -m bench pose-yaw [--tracker annotated,aam]
         [--tracker-fn module:function] [--sequence DIR] [--skip-sweeps] [--eos]
         [--noise 0.02] [--ablations] [--variants a,b]
 
