@@ -27,16 +27,16 @@ import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import cv2  # noqa: E402
-import numpy as np  # noqa: E402
+import cv2
+import numpy as np
 
-from aamcore import defaults  # noqa: E402
-from aamcore.config import cache_dir, data_root, resolve_dataset  # noqa: E402
-from aamcore.detection.boxes import match_detection  # noqa: E402
-from aamcore.detection.haar import cascade_path  # noqa: E402
-from aamcore.io import load_annotated_folder  # noqa: E402
-from aamcore.io.splits import SPLIT_SETS, is_held_out  # noqa: E402
-from aamcore.io.video import video_frames  # noqa: E402
+from aamcore import defaults
+from aamcore.config import cache_dir, data_root, resolve_dataset
+from aamcore.detection.boxes import match_detection
+from aamcore.detection.haar import cascade_path
+from aamcore.io import load_annotated_folder
+from aamcore.io.splits import SPLIT_SETS, is_held_out
+from aamcore.io.video import video_frames
 from bench import options
 
 SCANS = [

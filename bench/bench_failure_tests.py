@@ -31,24 +31,24 @@ import os
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import cv2  # noqa: E402
-import numpy as np  # noqa: E402
-from threadpoolctl import threadpool_limits  # noqa: E402
+import cv2
+import numpy as np
+from threadpoolctl import threadpool_limits
 
-from aamcore.config import data_root, resolve_dataset  # noqa: E402
-from aamcore.detection.boxes import landmark_box  # noqa: E402
-from aamcore.detection.haar import HaarFaceDetector  # noqa: E402
-from aamcore.evaluation.fits import haar_box  # noqa: E402
-from aamcore.evaluation.metrics import nme  # noqa: E402
-from aamcore.fitting.fitter import Fitter  # noqa: E402
-from aamcore.fitting.model import FittingModel  # noqa: E402
-from aamcore.fitting.tracker import Tracker  # noqa: E402
-from aamcore.fitting.training.perturb import placed_on_no_face  # noqa: E402
-from aamcore.fitting.training.quality import calibrate, failure_rates  # noqa: E402
-from aamcore.io import load_annotated_folder  # noqa: E402
-from aamcore.io.landmarks import IBUG68  # noqa: E402
-from aamcore.io.splits import SPLIT_SETS, split  # noqa: E402
-from aamcore.io.video import video_frames  # noqa: E402
+from aamcore.config import data_root, resolve_dataset
+from aamcore.detection.boxes import landmark_box
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.evaluation.fits import haar_box
+from aamcore.evaluation.metrics import nme
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
+from aamcore.fitting.tracker import Tracker
+from aamcore.fitting.training.perturb import placed_on_no_face
+from aamcore.fitting.training.quality import calibrate, failure_rates
+from aamcore.io import load_annotated_folder
+from aamcore.io.landmarks import IBUG68
+from aamcore.io.splits import SPLIT_SETS, split
+from aamcore.io.video import video_frames
 from bench import options
 
 

@@ -24,19 +24,19 @@ from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import cv2  # noqa: E402
-import numpy as np  # noqa: E402
-from threadpoolctl import threadpool_limits  # noqa: E402
+import cv2
+import numpy as np
+from threadpoolctl import threadpool_limits
 
-from aamcore import defaults  # noqa: E402
-from aamcore.config import resolve_dataset  # noqa: E402
-from aamcore.evaluation.fits import landmark_errors, summary  # noqa: E402
-from aamcore.evaluation.plots import save_ced_png  # noqa: E402
-from aamcore.fitting.algorithm import ALGORITHMS  # noqa: E402
-from aamcore.fitting.fitter import Fitter  # noqa: E402
-from aamcore.fitting.model import FittingModel  # noqa: E402
-from aamcore.io import load_annotated_folder  # noqa: E402
-from aamcore.io.splits import SPLIT_SETS, split  # noqa: E402
+from aamcore import defaults
+from aamcore.config import resolve_dataset
+from aamcore.evaluation.fits import landmark_errors, summary
+from aamcore.evaluation.plots import save_ced_png
+from aamcore.fitting.algorithm import ALGORITHMS
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
+from aamcore.io import load_annotated_folder
+from aamcore.io.splits import SPLIT_SETS, split
 from bench import options
 from bench.targets import Target
 

@@ -30,17 +30,17 @@ from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import cv2  # noqa: E402
-import numpy as np  # noqa: E402
-from threadpoolctl import threadpool_limits  # noqa: E402
+import cv2
+import numpy as np
+from threadpoolctl import threadpool_limits
 
-from aamcore import defaults  # noqa: E402
-from aamcore.config import data_root  # noqa: E402
-from aamcore.detection.haar import HaarFaceDetector  # noqa: E402
-from aamcore.fitting.algorithm import ALGORITHMS  # noqa: E402
-from aamcore.fitting.fitter import Fitter  # noqa: E402
-from aamcore.fitting.model import FittingModel  # noqa: E402
-from aamcore.io.video import video_frames  # noqa: E402
+from aamcore import defaults
+from aamcore.config import data_root
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.fitting.algorithm import ALGORITHMS
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
+from aamcore.io.video import video_frames
 from bench import options
 from bench.targets import Target
 

@@ -31,15 +31,27 @@ from pathlib import Path
 
 import numpy as np
 
-from aamcore.detection.haar import HaarFaceDetector  # noqa: E402
-from aamcore.evaluation.metrics import nme  # noqa: E402
-from aamcore.fitting.fitter import Fitter  # noqa: E402
-from aamcore.fitting.model import FittingModel  # noqa: E402
-from aamcore.fitting.multi import MultiTracker  # noqa: E402
-from aamcore.synth.group import FacePath, GroupScene, group_scene  # noqa: E402
-from aamcore.tracker import FaceResult, FaceTracker  # noqa: E402
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.evaluation.metrics import nme
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
+from aamcore.fitting.multi import MultiTracker
+from aamcore.synth.group import FacePath, GroupScene, group_scene
+from aamcore.tracker import FaceResult, FaceTracker
 from bench import options
-from bench.tracking_clips import held_out_photos  # noqa: E402
+from bench.targets import Target
+from bench.tracking_clips import held_out_photos
+
+GOOD = Target("good fits outside crossings", ">=", 98.0, "%")
+GOOD_WHERE_ALONE = Target("good fits outside crossings where the face alone gets one", ">=",
+                          98.0, "%")
+SWITCHES = Target("id switches while in view, outside crossings", "==", 0)
+PICKUP = Target("frames until a newcomer is picked up, worst", "<=", 10, "frames")
+MISSED = Target("newcomers never picked up", "==", 0)
+NME_RATIO = Target("NME per face against the single-face tracker's", "<=", 1.05, "x")
+EXTRA_FACE = Target("what an extra face adds per frame (tracker), at most", "<=", 1.5, "ms")
+SEARCH = Target("search for new faces per frame, on average, at most", "<=", 2.0, "ms")
+TARGETS = (GOOD, GOOD_WHERE_ALONE, SWITCHES, PICKUP, MISSED, NME_RATIO, EXTRA_FACE, SEARCH)
 
 MAX_FACES = 4
 WIDTH = 120.0
@@ -267,23 +279,14 @@ def main(argv: list[str] | None = None) -> int:
     where = total.both_good / max(total.single_good, 1)
     ratio = np.mean(total.nme_multi) / np.mean(total.nme_single)
     pickup = max(total.pickups, default=0)
-    print()
-    checks = [
-        (f"good fits outside crossings {100 * good:.1f}% (>= 98%)", good >= 0.98),
-        (f"good fits outside crossings where the face alone gets one {100 * where:.1f}% "
-         "(>= 98%)", where >= 0.98),
-        (f"id switches while in view, outside crossings: {total.switches} (0)",
-         total.switches == 0),
-        (f"newcomer picked up within {pickup} frames, {total.missed_entries} missed (<= 10)",
-         pickup <= 10 and total.missed_entries == 0),
-        (f"NME per face {ratio:.3f}x the single-face tracker's (<= 1.05)", ratio <= 1.05),
-        (f"extra face adds {extra.max():.2f} ms (tracker), {extra_full.max():.2f} ms "
-         "(with pose) per frame at most (<= 1.5)", extra.max() <= 1.5),
-        (f"search for new faces {search:.2f} ms per frame on average at most (<= 2)",
-         search <= 2.0),
-    ]
-    for text, ok in checks:
-        print(f"{'PASS' if ok else 'FAIL'}: {text}")
+    GOOD.check(100 * good)
+    GOOD_WHERE_ALONE.check(100 * where)
+    SWITCHES.check(total.switches)
+    PICKUP.check(pickup, f"{total.missed_entries} missed")
+    MISSED.check(total.missed_entries)
+    NME_RATIO.check(ratio)
+    EXTRA_FACE.check(float(extra.max()), f"{extra_full.max():.2f} ms with pose")
+    SEARCH.check(search)
     return 0
 
 

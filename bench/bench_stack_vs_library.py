@@ -38,10 +38,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from aamcore.config import data_root  # noqa: E402
+from aamcore.config import data_root
 from bench import options
-from bench.bench_stack import RunResult, run  # noqa: E402
-from services.stack.options import parse_run_args  # noqa: E402
+from bench.bench_stack import RunResult, run
+from services.stack.options import parse_run_args
 
 TARGET_RATIO = 1.5
 TARGET_FPS = 180.0

@@ -25,24 +25,24 @@ from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
-from threadpoolctl import threadpool_limits  # noqa: E402
+import numpy as np
+from threadpoolctl import threadpool_limits
 
-from aamcore.config import data_root  # noqa: E402
-from aamcore.evaluation.expression_lopo import (  # noqa: E402
+from aamcore.config import data_root
+from aamcore.evaluation.expression_lopo import (
     jaffe_faces,
     run_expression_benchmark,
     thesis_specs,
 )
-from aamcore.evaluation.expression_report import format_benchmark  # noqa: E402
-from aamcore.evaluation.expression_variants import (  # noqa: E402
+from aamcore.evaluation.expression_report import format_benchmark
+from aamcore.evaluation.expression_variants import (
     JAFFE_ONLY,
     THESIS_CLASSIFIERS,
     variant_named,
 )
-from aamcore.expression.svm import SVM_GRIDS  # noqa: E402
-from aamcore.profiles import profile_named  # noqa: E402
-from aamcore.tracker import FaceTracker  # noqa: E402
+from aamcore.expression.svm import SVM_GRIDS
+from aamcore.profiles import profile_named
+from aamcore.tracker import FaceTracker
 from bench import options
 
 

@@ -71,26 +71,26 @@ from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import cv2  # noqa: E402
-import numpy as np  # noqa: E402
-from threadpoolctl import threadpool_limits  # noqa: E402
+import cv2
+import numpy as np
+from threadpoolctl import threadpool_limits
 
-from aamcore import defaults  # noqa: E402
-from aamcore.config import REPO_ROOT, cache_dir, data_root, resolve_dataset  # noqa: E402
-from aamcore.fitting.algorithm import ALGORITHMS  # noqa: E402
-from aamcore.fitting.fitter import Fitter  # noqa: E402
-from aamcore.fitting.model import FittingModel  # noqa: E402
-from aamcore.fitting.tracker import NEVER  # noqa: E402
-from aamcore.io import load_annotated_folder  # noqa: E402
-from aamcore.io.landmarks import LandmarkScheme  # noqa: E402
-from aamcore.io.splits import set_name_of, split  # noqa: E402
-from aamcore.io.video import video_frames  # noqa: E402
-from aamcore.tracker import FaceResult, FaceTracker  # noqa: E402
+from aamcore import defaults
+from aamcore.config import REPO_ROOT, cache_dir, data_root, resolve_dataset
+from aamcore.fitting.algorithm import ALGORITHMS
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
+from aamcore.fitting.tracker import NEVER
+from aamcore.io import load_annotated_folder
+from aamcore.io.landmarks import LandmarkScheme
+from aamcore.io.splits import set_name_of, split
+from aamcore.io.video import video_frames
+from aamcore.tracker import FaceResult, FaceTracker
 from bench import options
-from bench.tracking_clips import NONRIGID, Clip, generated_clips, nonrigid_clips  # noqa: E402
-from bench.tracking_parts import HEADER as PARTS_HEADER  # noqa: E402
-from bench.tracking_parts import Pool, parse_scheme, pool_row, run_scheme  # noqa: E402
-from bench.tracking_scores import REACQUIRED_NME, Score, Track, pooled, score, track_of  # noqa: E402
+from bench.tracking_clips import NONRIGID, Clip, generated_clips, nonrigid_clips
+from bench.tracking_parts import HEADER as PARTS_HEADER
+from bench.tracking_parts import Pool, parse_scheme, pool_row, run_scheme
+from bench.tracking_scores import REACQUIRED_NME, Score, Track, pooled, score, track_of
 
 TARGET_GOOD, TARGET_NME, TARGET_REACQUIRE = 0.98, 0.035, 5
 SCHEMES = ("track", "refit:failed=1", "refit:every=6", "previous", "truth")

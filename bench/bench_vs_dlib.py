@@ -37,22 +37,22 @@ from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import cv2  # noqa: E402
-import dlib  # noqa: E402
-import numpy as np  # noqa: E402
-from threadpoolctl import threadpool_limits  # noqa: E402
+import cv2
+import dlib
+import numpy as np
+from threadpoolctl import threadpool_limits
 
-from aamcore.config import cache_dir, data_root, resolve_dataset  # noqa: E402
-from aamcore.detection.boxes import landmark_box, match_detection  # noqa: E402
-from aamcore.detection.haar import HaarFaceDetector  # noqa: E402
-from aamcore.evaluation.fits import haar_box  # noqa: E402
-from aamcore.evaluation.metrics import nme, part_nmes  # noqa: E402
-from aamcore.fitting.fitter import Fitter  # noqa: E402
-from aamcore.fitting.model import FittingModel  # noqa: E402
-from aamcore.io import load_annotated_folder  # noqa: E402
-from aamcore.io.landmarks import IBUG68  # noqa: E402
-from aamcore.io.splits import SPLIT_SETS, split  # noqa: E402
-from aamcore.io.video import video_frames  # noqa: E402
+from aamcore.config import cache_dir, data_root, resolve_dataset
+from aamcore.detection.boxes import landmark_box, match_detection
+from aamcore.detection.haar import HaarFaceDetector
+from aamcore.evaluation.fits import haar_box
+from aamcore.evaluation.metrics import nme, part_nmes
+from aamcore.fitting.fitter import Fitter
+from aamcore.fitting.model import FittingModel
+from aamcore.io import load_annotated_folder
+from aamcore.io.landmarks import IBUG68
+from aamcore.io.splits import SPLIT_SETS, split
+from aamcore.io.video import video_frames
 from bench import options
 
 PREDICTOR = Path(os.environ.get(
