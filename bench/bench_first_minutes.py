@@ -142,8 +142,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--runs", type=int, default=9, help="runs of each help (default 9)")
     parser.add_argument("--pairs", type=int, default=3, help="track runs with and without "
                         "--annotate (default 3 each)")
-    parser.add_argument("--video", type=Path, default=data_root() / "videos" / "single_face.mp4")
+    parser.add_argument("--video", type=Path, help="default: videos/single_face.mp4")
     args = options.parse(parser, argv)
+    args.video = args.video or data_root() / "videos" / "single_face.mp4"
     print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     passed = True
     print(f"\n{'command':<24}{'median s':>10}{'min s':>8}{'max s':>8}{'target s':>10}")

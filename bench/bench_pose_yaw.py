@@ -34,7 +34,7 @@ One table per data set and tracker: per variant and sweep the frames with a
 reliable pose and the flagged ones, the error sd (mean) of roll, pitch, yaw
 (deg) and distance (cm), the mean reprojection error of the glasses' anchor
 points (lens centres, bridge, hinges) in pixels, and ms per estimate. Then a
-bad-input section, and PASS/FAIL lines: error sd <= 1.5 deg in roll, pitch and
+bad-input section, and the targets: error sd <= 1.5 deg in roll, pitch and
 yaw and <= 1.0 cm in distance, over all sweeps and on the yaw sweep; a wrong
 pose (> 10 deg off) never called reliable on bad input.
 """
@@ -70,10 +70,15 @@ from aamcore.pose.rotation import rotation_angle_deg, rotation_from_rpy
 from aamcore.synth.head import synth_head
 from aamcore.synth.sequence import PoseTruth, annotated_landmarks
 from bench import options
+from bench.targets import Target
 
-SD_TARGET_DEG = 1.5
-SD_TARGET_CM = 1.0
+SD_DEG = Target("roll, pitch and yaw error sd, each estimator, tracker and scope", "<=", 1.5,
+                "deg")
+SD_CM = Target("distance error sd, each estimator, tracker and scope", "<=", 1.0, "cm")
 WRONG_DEG = 10.0
+BAD_INPUT = Target(f"never a pose > {WRONG_DEG:g} deg off called reliable on bad input", "==",
+                   True)
+TARGETS = (SD_DEG, SD_CM, BAD_INPUT)
 PARAMS = ("roll", "pitch", "yaw", "distance_cm")
 Estimate = Callable[[np.ndarray, CameraIntrinsics], Any]
 
@@ -127,16 +132,16 @@ def variants(camera: CameraIntrinsics, args: argparse.Namespace) -> list[Variant
     return out
 
 
-def aam_tracker() -> tuple[Callable[[Any], list[np.ndarray | None]], str]:
+def aam_tracker(args: argparse.Namespace
+                ) -> tuple[Callable[[Any], list[np.ndarray | None]], str]:
     """The stack's tracker as ``track(frames) -> landmarks``, and its cache name."""
     from aamcore.detection.haar import HaarFaceDetector
     from aamcore.evaluation.tracking import track_frames
     from aamcore.fitting.fitter import Fitter
     from aamcore.fitting.model import FittingModel
     from aamcore.fitting.tracker import Tracker
-    from aamcore.fitting.training.prepare import default_model_path
 
-    path = default_model_path()
+    path = options.model_path(args)
     fitter = Fitter(FittingModel.load(path), defaults.ALGORITHM,
                     failure_test=defaults.FAILURE_TEST)
     tracker = Tracker(fitter, HaarFaceDetector())
@@ -192,21 +197,16 @@ def print_table(title: str, rows: list[tuple[str, dict[str, SweepResult], dict[s
             print(f"{'':<16}no pose / flagged: " + "; ".join(f"{n} x {k}" for k, n in reasons))
 
 
-def verdicts(label: str, results: dict[str, SweepResult], scopes: list[str]) -> list[str]:
-    """PASS/FAIL lines for the sd targets over ``scopes``."""
-    lines = []
+def verdicts(label: str, results: dict[str, SweepResult], scopes: list[str]) -> None:
+    """Check the sd targets over ``scopes``."""
     for scope in scopes:
         e = results[scope].errors
         for p in PARAMS:
-            limit = SD_TARGET_CM if p == "distance_cm" else SD_TARGET_DEG
-            sd = e[p]["std"]
-            ok = bool(np.isfinite(sd) and sd <= limit)
             where = "" if scope == "all" else f" over {_covered(results[scope])}"
-            lines.append(f"{'PASS' if ok else 'FAIL'}: {label} {scope} {p} error sd {sd:.2f} "
-                         f"(target <= {limit:g}); mean {e[p]['mean']:+.2f}, "
-                         f"max {e[p]['max_abs']:.1f}, {results[scope].estimated}/"
-                         f"{results[scope].frames} frames{where}")
-    return lines
+            (SD_CM if p == "distance_cm" else SD_DEG).check(
+                float(e[p]["std"]), f"{label} {scope} {p}: mean {e[p]['mean']:+.2f}, max "
+                f"{e[p]['max_abs']:.1f}, {results[scope].estimated}/{results[scope].frames} "
+                f"frames{where}")
 
 
 def bad_inputs(camera: CameraIntrinsics, seed: int) -> list[tuple[str, np.ndarray, PoseTruth]]:
@@ -236,8 +236,9 @@ def bad_inputs(camera: CameraIntrinsics, seed: int) -> list[tuple[str, np.ndarra
     return cases
 
 
-def run_bad_inputs(chosen: list[Variant], camera: CameraIntrinsics, seed: int) -> list[str]:
-    """Each variant on each hard case; FAIL when a pose off by > 10 deg is called reliable."""
+def run_bad_inputs(chosen: list[Variant], camera: CameraIntrinsics, seed: int) -> None:
+    """Each variant on each hard case; missed when a pose off by > 10 deg is called
+    reliable."""
     print("\nbad input (a reliable answer's angle error, else the reason)")
     failed: dict[str, str] = {}
     for case, uv, truth in bad_inputs(camera, seed):
@@ -256,9 +257,8 @@ def run_bad_inputs(chosen: list[Variant], camera: CameraIntrinsics, seed: int) -
                 verdict = f"CRASH {type(exc).__name__}: {exc}"
                 failed.setdefault(v.name, f"crashes on {case}")
             print(f"    {v.name:<16}{verdict}")
-    return [f"FAIL: {v.name} {failed[v.name]}" if v.name in failed else
-            f"PASS: {v.name} never calls a pose > {WRONG_DEG:g} deg off reliable on bad input"
-            for v in chosen]
+    for v in chosen:
+        BAD_INPUT.check(v.name not in failed, f"{v.name} {failed.get(v.name, '')}".strip())
 
 
 def live_timing(sweeps: list[TrackedSweep], marks: list[list[np.ndarray | None]] | None,
@@ -280,7 +280,7 @@ def trackers(args: argparse.Namespace) -> list[tuple[str, Callable[..., Any] | N
         if name == "annotated":
             out.append(("annotated", None, "none"))
         elif name == "aam":
-            track, cache_name = aam_tracker()
+            track, cache_name = aam_tracker(args)
             out.append(("aam", track, cache_name))
         elif name:
             raise SystemExit(f"unknown tracker {name!r}: annotated or aam")
@@ -321,8 +321,8 @@ def tracker_note(sweeps: list[TrackedSweep], track: Callable[..., Any] | None) -
             f"{np.mean(errs) if errs else float('nan'):.2f} px from the fixed landmark points")
 
 
-def main(argv: list[str] | None = None) -> None:
-    parser = options.parser(__doc__, __name__)
+def main(argv: list[str] | None = None) -> int:
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--tracker", default="annotated,aam",
                         help="comma-separated: annotated, aam (default both)")
     parser.add_argument("--tracker-fn", help="module:function, a track(frames) -> landmarks")
@@ -350,14 +350,15 @@ def main(argv: list[str] | None = None) -> None:
                                                      v.settle)
                 rows.append((v.name, results, timing))
                 yaw = [s.spec.name for s in sweeps if s.spec.parameter == "yaw"]
-                lines += verdicts(f"{v.name} [{label}, {data_name}]", results, ["all", *yaw])
+                verdicts(f"{v.name} [{label}, {data_name}]", results, ["all", *yaw])
                 lines.append(f"INFO: {v.name} [{label}, {data_name}] {timing['ms_median']:.2f} "
                              f"ms median, p99 {timing['ms_p99']:.2f} ms per estimate")
             print_table(f"== {data_name}, {tracked}: {tracker_note(sweeps, track)}", rows)
             lines.append(live_timing(sweeps, marks, cam, anchors))
-    lines += run_bad_inputs(variants(camera, args), camera, args.seed)
+    run_bad_inputs(variants(camera, args), camera, args.seed)
     print("\n(error sd (mean) in deg, distance in cm; glasses: mean anchor px; ms: median "
           "per estimate)\n")
     for line in lines:
         print(line)
+    return 0
 

@@ -36,9 +36,15 @@ import numpy as np
 
 from aamcore.config import REPO_ROOT, data_root
 from aamcore.expression.training import classifier_path
-from aamcore.fitting.training.prepare import default_model_path
 from bench import options
+from bench.targets import Target
 from services.stack.recorder import read_recording
+
+CTRL_C = Target("Ctrl-C at random moments: 0 hangs, every .rrd written verifies, every .rec "
+                "written loads, no traceback", "==", True)
+BAD_OPTIONS = Target("every bad option exits 2 with one line within 2 s", "==", True)
+HOSTILE = Target("every hostile case passes in every run", "==", True)
+TARGETS = (CTRL_C, BAD_OPTIONS, HOSTILE)
 
 RERUN = Path(sys.executable).with_name("rerun")
 ENV = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO_ROOT)}
@@ -108,10 +114,8 @@ def interrupts(runs: int, model: Path, classifier: Path, seed: int) -> bool:
           f"do not load, {missing} stopped before a recording started ({unsaid} without saying "
           f"so), {tracebacks} with a traceback; exit codes {codes} (-2: killed by the SIGINT "
           "itself, which a shell reports as 130, as it does 130)")
-    ok = hangs == 0 and bad_rrd == 0 and bad_rec == 0 and tracebacks == 0
-    print(f"{'PASS' if ok else 'FAIL'}: 0 hangs, every .rrd written verifies, every .rec written "
-          "loads, no traceback")
-    return ok
+    return CTRL_C.check(hangs == 0 and bad_rrd == 0 and bad_rec == 0 and tracebacks == 0,
+                        f"{runs} runs")
 
 
 def bad_inputs(folder: Path, model: Path) -> list[tuple[str, list[str]]]:
@@ -179,8 +183,7 @@ def option_errors(model: Path) -> bool:
             good = done.returncode == 2 and len(lines) == 1 and took <= 2.0
             ok &= good
             print(f"{what:<24}{done.returncode:>5}{took:>9.2f}  {lines[0] if lines else '?'}")
-    print(f"{'PASS' if ok else 'FAIL'}: every bad option exits 2 with one line within 2 s")
-    return ok
+    return BAD_OPTIONS.check(ok)
 
 
 def hostile(runs: int, model: Path, classifier: Path) -> bool:
@@ -195,22 +198,21 @@ def hostile(runs: int, model: Path, classifier: Path) -> bool:
         passed = sum(good for good, _ in results)
         ok &= passed == runs
         print(f"{name:<16}{passed:>5} of {runs}  {results[-1][1]}", flush=True)
-    print(f"{'PASS' if ok else 'FAIL'}: every hostile case passes in every run")
-    return ok
+    return HOSTILE.check(ok, f"{runs} runs each")
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = options.parser(__doc__, __name__)
-    parser.add_argument("--runs", type=int, default=50)
+    parser = options.parser(__doc__, __name__, model=True)
+    parser.add_argument("--runs", type=int, default=50, help="Ctrl-C runs")
     parser.add_argument("--small-model", action="store_true",
-                        help="the small test model (120 images), as the tests use")
+                        help="the small test model (300 faces), as the tests use")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--hostile-runs", type=int, default=20)
     parser.add_argument("--only", choices=("options", "interrupts", "hostile"),
                         help="one section only")
     args = options.parse(parser, argv)
-    model = (default_model_path(max_images=10, limit=300) if args.small_model
-             else default_model_path())
+    model = (options.model_path(args, max_images=10, limit=300) if args.small_model
+             else options.model_path(args))
     classifier = classifier_path(model)
     ok = True
     if args.only in (None, "options"):

@@ -35,6 +35,7 @@ import numpy as np
 
 from aamcore.config import data_root
 from bench import options
+from bench.targets import Target
 from proto import Frame, Header, Message, Overlay, decode
 from proto import encode as plain_encode
 from proto.auth import Keyring
@@ -44,7 +45,9 @@ from services.bus.stats import ServiceStats
 from services.bus.trust import Replays
 from services.stack.registry import SERVICES
 
-TARGET_MS = 0.2
+PER_MESSAGE = Target("signing and checking per message, worst service (each one's signs and "
+                     "checks)", "<=", 0.2, "ms")
+TARGETS = (PER_MESSAGE,)
 WIDTH, HEIGHT = 640, 360
 
 
@@ -109,20 +112,19 @@ def per_message(repeat: int) -> bool:
     copy = best_ms(lambda: bytes(bytearray(WIDTH * HEIGHT * 3)), repeat)
     print(f"yardstick: copying a frame's {WIDTH * HEIGHT * 3} bytes takes {copy:.3f} ms")
     print(f"\n{'service':<12}{'signs':<22}{'checks':<44}{'ms per message':>15}")
-    ok = True
+    worst = 0.0
     reads_of = {name: [k for k in info.reads if k in check] + ["status"] * (name == "rerun")
                 for name, info in SERVICES.items()}
     for name, info in SERVICES.items():
         signs = [k for k in info.publishes if k in sign] + ["status"]
         checks = reads_of[name] + (["frame"] if info.answers else [])
         total = max(sign[k] for k in signs) + sum(check[k] for k in checks)
-        ok &= total <= TARGET_MS
+        worst = max(worst, total)
         print(f"{name:<12}{','.join(signs):<22}{','.join(checks) or '-':<44}{total:>15.3f}")
     launcher = sum(check.values())
     print(f"{'launcher':<12}{'status':<22}{'every kind':<44}{launcher:>15.3f}")
-    print(f"{'PASS' if ok else 'FAIL'}: signing and checking <= {TARGET_MS} ms per message per "
-          "service (the launcher and the Rerun logger check every kind, one message each)")
-    return ok
+    return PER_MESSAGE.check(worst, "the launcher and the Rerun logger check every kind, one "
+                                    "message each")
 
 
 def stack_fps(checkout: Path, video: Path, folder: Path) -> float:

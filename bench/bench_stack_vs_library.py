@@ -41,13 +41,16 @@ import numpy as np
 from aamcore.config import data_root
 from bench import options
 from bench.bench_stack import RunResult, run
+from bench.targets import Target
 from services.stack.options import parse_run_args
 
-TARGET_RATIO = 1.5
-TARGET_FPS = 180.0
-TARGET_OVERLAYS = 0.95
-TARGET_FAST_P99_MS = 40.0
-TARGET_REALTIME_P99_MS = 10.0
+RATIO = Target("marginal CPU a frame, stack at real-time pacing / library", "<=", 1.5, "x")
+FAST_FPS = Target("--pace fast: frames a second", ">=", 180.0, "frames/s")
+OVERLAYS = Target("--pace fast: overlays per reliable pose", ">=", 95.0, "%")
+FAST_P99 = Target("--pace fast: capture to pose p99", "<=", 40.0, "ms")
+REALTIME_P99 = Target("real-time pacing: capture to pose p99", "<=", 10.0, "ms")
+REALTIME_ANSWERED = Target("real-time pacing: every frame answered", "==", True)
+TARGETS = (RATIO, FAST_FPS, OVERLAYS, FAST_P99, REALTIME_P99, REALTIME_ANSWERED)
 
 LIBRARY = """
 import json, sys, time
@@ -142,10 +145,6 @@ def service_table(runs: dict[str, RunResult]) -> str:
     return "\n".join(lines)
 
 
-def verdict(ok: bool, what: str) -> str:
-    return f"{'MET ' if ok else 'MISSED'}: {what}"
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = options.parser(__doc__, __name__)
     parser.add_argument("--plays", type=int, default=3, help="forward-backward plays, long clip")
@@ -180,19 +179,9 @@ def main(argv: list[str] | None = None) -> int:
           f"every frame answered: {rt.answered}")
     print(f"source: {fast.summary['services']['source']['message']}")
     print(f"load after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}\n")
-    checks = [
-        verdict(ratio <= TARGET_RATIO, f"stack CPU a frame {ratio:.2f} x the library's "
-                f"(target <= {TARGET_RATIO:g} x)"),
-        verdict(fa.fps >= TARGET_FPS, f"fast pacing {fa.fps:.1f} frames/s "
-                f"(target >= {TARGET_FPS:g})"),
-        verdict(drawn >= TARGET_OVERLAYS, f"overlays for {drawn:.1%} of the reliable poses "
-                f"(target >= {TARGET_OVERLAYS:.0%})"),
-        verdict(fa.p99 <= TARGET_FAST_P99_MS, f"fast capture-to-pose p99 {fa.p99:.1f} ms "
-                f"(target <= {TARGET_FAST_P99_MS:g})"),
-        verdict(rt.answered and rt.p99 <= TARGET_REALTIME_P99_MS,
-                f"real-time: every frame answered {rt.answered}, capture-to-pose p99 "
-                f"{rt.p99:.1f} ms (target <= {TARGET_REALTIME_P99_MS:g})"),
-    ]
-    print("\n".join(checks))
-    return 0 if all(c.startswith("MET") for c in checks) else 1
-
+    checks = [RATIO.check(ratio, f"{stack_ms:.1f} / {lib_ms:.1f} ms"), FAST_FPS.check(fa.fps),
+              OVERLAYS.check(100 * drawn, f"{fa.overlays} of {fa.reliable}"),
+              FAST_P99.check(fa.p99, f"p50 {fa.p50:.0f} ms"),
+              REALTIME_P99.check(rt.p99, f"p50 {rt.p50:.0f} ms"),
+              REALTIME_ANSWERED.check(bool(rt.answered))]
+    return 0 if all(checks) else 1

@@ -87,12 +87,19 @@ from aamcore.io.splits import set_name_of, split
 from aamcore.io.video import video_frames
 from aamcore.tracker import FaceResult, FaceTracker
 from bench import options
+from bench.targets import Target
 from bench.tracking_clips import NONRIGID, Clip, generated_clips, nonrigid_clips
 from bench.tracking_parts import HEADER as PARTS_HEADER
 from bench.tracking_parts import Pool, parse_scheme, pool_row, run_scheme
 from bench.tracking_scores import REACQUIRED_NME, Score, Track, pooled, score, track_of
 
-TARGET_GOOD, TARGET_NME, TARGET_REACQUIRE = 0.98, 0.035, 5
+REACQUIRE_FRAMES = 5
+GOOD = Target("frames outside the occluder with a good fit, generated sequences", ">=", 98.0,
+              "%")
+NME = Target("mean NME of those good fits", "<=", 0.035)
+REACQUIRED = Target(f"sequences re-acquired within {REACQUIRE_FRAMES} frames of the occluder "
+                    "leaving", ">=", 100.0, "%")
+TARGETS = (GOOD, NME, REACQUIRED)
 SCHEMES = ("track", "refit:failed=1", "refit:every=6", "previous", "truth")
 """The schemes compared per part by default."""
 
@@ -141,20 +148,15 @@ def row(name: str, s: Score) -> str:
             f"{worst_reacquire(s.reacquire):>7}{num(med, '.1f'):>8}{num(p95, '.1f'):>8}")
 
 
-def verdicts(s: Score) -> list[tuple[bool, str]]:
-    """The targets, each PASS or FAIL with its line, on the pooled generated sequences."""
+def verdicts(s: Score) -> bool:
+    """Check the targets on the pooled generated sequences; whether all are met."""
     good = s.good_outside / s.outside if s.outside else 0.0
     mean_e = float(s.errors.mean()) if len(s.errors) else np.inf
-    within = [r for r in s.reacquire if r is not None and r <= TARGET_REACQUIRE]
-    return [
-        (good >= TARGET_GOOD, f"{good:.1%} of the frames outside the occluder with a good fit "
-                              f"(target >= {TARGET_GOOD:.0%})"),
-        (mean_e <= TARGET_NME, f"mean NME {mean_e:.4f} on them (target <= {TARGET_NME})"),
-        (bool(s.reacquire) and len(within) == len(s.reacquire),
-         f"re-acquired within {TARGET_REACQUIRE} frames of the occluder leaving on "
-         f"{len(within)} of {len(s.reacquire)} sequences (worst: "
-         f"{worst_reacquire(s.reacquire)})"),
-    ]
+    within = [r for r in s.reacquire if r is not None and r <= REACQUIRE_FRAMES]
+    ok = GOOD.check(100 * good) & NME.check(mean_e)
+    share = 100 * len(within) / len(s.reacquire) if s.reacquire else 0.0
+    return REACQUIRED.check(share, f"{len(within)} of {len(s.reacquire)}, worst "
+                                   f"{worst_reacquire(s.reacquire)}") and ok
 
 
 def read_clip(path: Path) -> tuple[list[np.ndarray], float]:
@@ -348,7 +350,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{os.environ.get('OMP_NUM_THREADS')}, one OpenCV thread")
         generated = generated_clips(model, args.per_set, args.frames, args.regenerate)
         nonrigid = nonrigid_clips(model, args.nonrigid, args.frames, args.regenerate)
-        results = []
+        ok = True
         if not args.parts_only:
             clips = [Clip("video", "single_face.mp4",
                           data_root() / "videos" / "single_face.mp4", None), *generated,
@@ -357,15 +359,13 @@ def main(argv: list[str] | None = None) -> int:
             tracks, scores = library_runs(tracker, clips, scheme)
             overall = print_table(clips, scores)
             print()
-            results = verdicts(overall)
-            for ok, line in results:
-                print(f"{'PASS' if ok else 'FAIL'}: {line}")
+            ok = verdicts(overall)
         compare_parts(tracker.fit.fitter, generated, nonrigid, args.schemes,
                       scheme)
         if args.via_stack and not args.parts_only:
             via_stack(generated[: args.via_stack], tracks, model_path, args.algorithm, scheme)
     print(f"\nbench time {time.perf_counter() - start:.0f} s")
-    return 0 if all(ok for ok, _ in results) else 1
+    return 0 if ok else 1
 
 
 def compare_parts(fitter: Fitter, rigid: list[Clip], nonrigid: list[Clip], names: list[str],
