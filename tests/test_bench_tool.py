@@ -30,6 +30,15 @@ def test_every_benchmark_file_is_registered_and_listed() -> None:
     assert all(len(line.split()) > 2 for line in done.stdout.splitlines())
 
 
+def test_the_readme_names_every_benchmark_and_runs_them_through_the_tool() -> None:
+    readme = (REPO_ROOT / "README.md").read_text()
+    table = readme[readme.index("## Benchmarks"):]
+    rows = [line for line in table.splitlines() if line.startswith("| `")]
+    named = {n.strip("` ") for row in rows for n in row.split("|")[1].split(",")}
+    assert named == set(tool.BENCHMARKS)
+    assert not re.search(r"bench/bench_\w+\.py|python bench/", readme)
+
+
 def test_every_benchmark_has_a_main_and_its_verdicts_go_through_its_targets() -> None:
     """Each module has the tool's entry and the shared parser, edits no ``sys.path`` and
     prints no verdict of its own: its targets are declared (``TARGETS``) and checked."""

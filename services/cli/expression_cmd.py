@@ -4,7 +4,7 @@ Prints the table of leave-one-poser-out rates over all JAFFE faces (or, with
 ``--json``, the full results) of the pipelines trained on the other JAFFE posers
 alone: the deployed pipeline before the three expression sets, comparison rows and the
 thesis's classifiers. The deployed classifier is measured on the held-out people of the
-three sets by ``bench/bench_expression.py``.
+three sets by ``python -m bench expression``.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ def _counts(text: str) -> list[int]:
 
 
 def add_benchmark_options(parser: argparse.ArgumentParser) -> None:
-    """The options the command and ``bench/bench_expression.py`` share."""
+    """The options the command and ``python -m bench expression`` share."""
     parser.add_argument("--only", action="append", default=[], metavar="TEXT",
                         help="only the rows whose name contains TEXT (repeatable), e.g. "
                         "--only 'JAFFE only'")
@@ -57,7 +57,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "pipeline deployed before the three expression sets (HOG patches + canonical shape "
         "relative to the face's reference, shrinkage LDA), comparison rows and the thesis's "
         "classifiers (LDA+Mahalanobis, RBF SVMs) on the fitter's appearance vector, for 7 and "
-        "5 classes. The deployed classifier: bench/bench_expression.py.",
+        "5 classes. The deployed classifier: python -m bench expression.",
     )
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
     add_benchmark_options(parser)
