@@ -71,6 +71,27 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def chosen_parser(parser: argparse.ArgumentParser, args: argparse.Namespace
+                  ) -> argparse.ArgumentParser:
+    """The parser of the (sub-)command ``args`` chose: ``aamtrack eval pose``'s for
+    ``aamtrack eval pose ...``, the top-level one when none was chosen."""
+    for action in parser._actions:  # argparse keeps its sub-command sets only here
+        if isinstance(action, argparse._SubParsersAction):
+            name = getattr(args, action.dest, None)
+            if name in action.choices:
+                return chosen_parser(action.choices[name], args)
+    return parser
+
+
+def parse(parser: argparse.ArgumentParser, argv: Sequence[str]) -> argparse.Namespace:
+    """``parser.parse_args(argv)``, but an argument no one knows is refused with the usage of
+    the sub-command it was given to (exit 2), not the top-level one argparse prints."""
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:
+        chosen_parser(parser, args).error(f"unrecognized arguments: {' '.join(unknown)}")
+    return args
+
+
 def command_in(argv: Sequence[str]) -> str:
     """The command word of ``argv`` (its first word that is not an option), or ``""``."""
     return next((word for word in argv if not word.startswith("-")), "")
@@ -99,7 +120,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _main(argv: list[str], command: str) -> int:
     import logging
 
-    args = build_parser(command).parse_args(argv)
+    args = parse(build_parser(command), argv)
     logging.basicConfig(
         level=logging.DEBUG if args.verbose else logging.INFO,
         format="%(asctime)s %(name)s %(levelname)s %(message)s",

@@ -17,8 +17,9 @@ from services.cli.groups import eval_group
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = add_command(sub, "fit")
-    p.add_argument("images", nargs="+", type=Path)
-    p.add_argument("--model", type=Path, required=True)
+    p.add_argument("images", nargs="+", type=Path, help="images to fit (one face each)")
+    p.add_argument("--model", type=Path, required=True,
+                   help="fitting model file (aamtrack train --fit --out FILE)")
     _algorithm_option(p)
     p.add_argument("--draw", type=Path, help="folder for the images with the fitted mesh")
     p.add_argument("--out", type=Path, help="JSON file (default: standard output)")
@@ -26,7 +27,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     ev = eval_group(sub)
     e = ev.add_parser("fit", help="Monte Carlo start displacements (thesis section 7.3)")
-    e.add_argument("--model", type=Path, required=True)
+    e.add_argument("--model", type=Path, required=True,
+                   help="fitting model file (aamtrack train --fit --out FILE)")
     e.add_argument("--data", required=True, help="annotated folder or dataset name")
     _algorithm_option(e)
     e.add_argument("--starts", default=",".join(defaults.FIT_STARTS), help="cog, haar or both")
@@ -41,7 +43,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     e.set_defaults(func=run_eval_fit)
 
     lm = ev.add_parser("landmarks", help="NME of fits from the Haar start on an annotated folder")
-    lm.add_argument("--model", type=Path, required=True)
+    lm.add_argument("--model", type=Path, required=True,
+                    help="fitting model file (aamtrack train --fit --out FILE)")
     lm.add_argument("--data", required=True, help="annotated folder or dataset name")
     _algorithm_option(lm)
     lm.add_argument("--limit", type=int, help="at most this many held-out images")

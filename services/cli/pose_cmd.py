@@ -38,7 +38,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     _camera_options(p)
     p.add_argument("--photo", type=Path, help="texture photo (default: a frontal LFPW face)")
     p.add_argument("--landmarks", type=Path, help="the photo's 68-point .pts file")
-    p.add_argument("--fps", type=float, default=30.0)
+    p.add_argument("--fps", type=float, default=30.0, help="frame rate of the video (default 30)")
     p.add_argument("--max-angle", type=float, default=40.0,
                    help="largest roll/pitch/yaw of the angle sweeps, degrees, below 90 "
                         "(default 40)")
@@ -55,7 +55,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "(default: the poses are generated, nothing is rendered)",
     )
     e.add_argument("--frames", type=int, default=140, help="frames when generating (default 140)")
-    e.add_argument("--sweep", choices=SWEEP_CHOICES, default="all")
+    e.add_argument("--sweep", choices=SWEEP_CHOICES, default="all",
+                   help="which pose parameter to sweep when generating (default all)")
     _camera_options(e)
     e.add_argument("--noise", default="0,1,2,3", help="pixel noise levels (default 0,1,2,3)")
     e.add_argument(
@@ -71,7 +72,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="pixel noise on the sequence's landmarks (default 1)",
     )
     e.add_argument("--plot", type=Path, help="PNG of estimate against truth per frame")
-    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--seed", type=int, default=0, help="seed of the pixel noise (default 0)")
     e.add_argument(
         "--fits",
         action="store_true",
@@ -86,8 +87,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _camera_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--width", type=int, default=640)
-    p.add_argument("--height", type=int, default=480)
+    p.add_argument("--width", type=int, default=640, help="image width, pixels (default 640)")
+    p.add_argument("--height", type=int, default=480, help="image height, pixels (default 480)")
     p.add_argument("--fov", type=float, default=60.0, help="horizontal field of view, degrees")
     p.add_argument(
         "--intrinsics",

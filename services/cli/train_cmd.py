@@ -18,9 +18,13 @@ if TYPE_CHECKING:
 
 def add_train_options(parser: argparse.ArgumentParser) -> None:
     """Options shared by every command that trains a model."""
-    parser.add_argument("--shape-variance", type=float, default=0.95)
-    parser.add_argument("--texture-variance", type=float, default=0.95)
-    parser.add_argument("--combined-variance", type=float, default=0.95)
+    parser.add_argument("--shape-variance", type=float, default=0.95,
+                        help="share of the shape variance the shape modes keep (default 0.95)")
+    parser.add_argument("--texture-variance", type=float, default=0.95,
+                        help="share of the texture variance the texture modes keep (default 0.95)")
+    parser.add_argument("--combined-variance", type=float, default=0.95,
+                        help="share of the combined appearance variance its modes keep "
+                             "(default 0.95)")
     parser.add_argument(
         "--pixels",
         type=int,
