@@ -60,7 +60,7 @@ def flood(intruder: Service, run: str, until: float) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = options.parser(__doc__, __name__)
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--warm-s", type=float, default=30.0)
     parser.add_argument("--flood-s", type=float, default=20.0)
     parser.add_argument("--after-s", type=float, default=10.0)
@@ -68,7 +68,9 @@ def main(argv: list[str] | None = None) -> int:
     args = options.parse(parser, argv)
     video = data_root() / "videos" / "single_face.mp4"
     argv = ["--video", str(video), "--no-ar", "--loop", "1000", "--pace", "realtime"]
-    if args.small_model:
+    if args.model:
+        argv += ["--model", str(args.model)]
+    elif args.small_model:
         from aamcore.expression.training import classifier_path
         from aamcore.fitting.training.prepare import default_model_path
 

@@ -44,7 +44,7 @@ def rss_mb(pid: int) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = options.parser(__doc__, __name__)
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--minutes", type=float, default=10.0)
     parser.add_argument("--small-model", action="store_true")
     parser.add_argument("--no-rerun", action="store_true")
@@ -56,6 +56,7 @@ def main(argv: list[str] | None = None) -> int:
         argv_run = ["--video", str(video), "--pace", "fast", "--loop", "100000",
                     *(["--model-limit", "300", "--model-images", "10"] if args.small_model
                       else []),
+                    *(["--model", str(args.model)] if args.model else []),
                     *([] if args.no_rerun else ["--rrd", str(Path(tmp) / "soak.rrd")])]
         opts = prepared(parse_run_args(argv_run))
         samples: dict[str, list[tuple[float, float]]] = {}

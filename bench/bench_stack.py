@@ -167,7 +167,7 @@ def stage_table(result: RunResult) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = options.parser(__doc__, __name__)
+    parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--loops", type=int, default=8, help="plays of the video, throughput")
     parser.add_argument("--latency-loops", type=int, default=3, help="plays, latency run")
     parser.add_argument("--warp", choices=("auto", "gpu", "cpu"), default="auto")
@@ -183,7 +183,8 @@ def main(argv: list[str] | None = None) -> int:
         common = ["--video", str(video), "--warp", args.warp,
                   *(["--no-ar"] if args.no_ar else []),
                   *(["--algorithm", args.algorithm] if args.algorithm else []),
-                  *(["--model-limit", "300", "--model-images", "10"] if args.small_model else [])]
+                  *(["--model-limit", "300", "--model-images", "10"] if args.small_model else []),
+                  *(["--model", str(args.model)] if args.model else [])]
         rec = Path(tmp) / "fast.rec"
         rrd = ["--rrd", str(Path(tmp) / "run.rrd")] if args.rerun else []
         fast = run(parse_run_args([*common, "--pace", "fast", "--loop", str(args.loops),
@@ -200,7 +201,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"stack: detector, fitter ({algorithm}, {args.warp} warp), pose, expression"
           f"{'' if args.no_ar else ', ar'}{', rerun' if args.rerun else ''}, source; "
           f"{os.cpu_count()} cores; model "
-          f"{'small' if args.small_model else 'default (lfpw,helen,afw)'}")
+          f"{args.model or ('small' if args.small_model else 'default (lfpw,helen,afw)')}")
     print(f"\nthroughput, fastest pacing, {args.loops} plays: {fps:.1f} frames/s; {note}")
     print(f"latency, real-time pacing, {args.latency_loops} plays: capture to pose p50 "
           f"{p50:.1f} ms, p99 {p99:.1f} ms over {len(lat)} poses "

@@ -14,6 +14,7 @@ import ast
 import importlib
 import json
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -41,9 +42,9 @@ def summary(name: str) -> str:
     """The first line of a benchmark's docstring, read without importing it."""
     path = HERE / f"bench_{name.replace('-', '_')}.py"
     doc = ast.get_docstring(ast.parse(path.read_text())) or ""
-    line = doc.split("\n\n")[0].replace("\n", " ")
-    for prefix in ("Bench: ", "Benchmark: ", "Benchmark "):
-        line = line.removeprefix(prefix)
+    line = re.sub(r"^([\w-]+ )?(bench|benchmark)( \(issue \d+\))?:? ", "",
+                  doc.split("\n\n")[0].replace("\n", " ").replace("``", ""),
+                  flags=re.IGNORECASE)
     return line[:1].upper() + line[1:]
 
 
