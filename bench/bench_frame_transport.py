@@ -77,7 +77,7 @@ def copies() -> list[tuple[str, float]]:
     image[...] = np.random.default_rng(0).integers(0, 255, SHAPE, np.uint8)
     raw = image.tobytes()
     keys = Keyring.generate(["source"])
-    signed = Keyring(keys.keys, "source")
+    signed = keys.for_service("source")
     frame = Frame.from_array(Header.now("bench", 0, "source"), image)
     payload = signed.encode(frame)
     provider = shm.ShmProvider.default_backend(POOL_IMAGES * (len(payload) + SLACK))
@@ -118,9 +118,9 @@ def end_to_end(frames: int, subscribers: int, shared: bool) -> tuple[float, list
     env = os.environ | {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO_ROOT)}
     bus = BusOptions("bench", listen=(endpoint,))
     with Service("source", bus, handle_signals=False, announce=False,
-                 keyring=Keyring(keys.keys, "source")) as svc:
+                 keyring=keys.for_service("source")) as svc:
         procs = [subprocess.Popen([sys.executable, "-c", SUBSCRIBER, endpoint, str(frames),
-                                   keys.for_service(n, ["source"]).to_bytes().decode(), n],
+                                   keys.for_service(n).to_bytes().decode(), n],
                                   stdout=subprocess.PIPE, text=True, env=env, cwd=REPO_ROOT)
                  for n in names]
         missing = svc.wait_for_alive(names, 60)
