@@ -8,7 +8,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from proto import EndOfStream, Frame
 from services.bus.connection import BusOptions
@@ -48,8 +47,13 @@ def test_real_time_jpeg_frames_then_end_of_stream(
     got, ends = drain(frames), drain(eos)
     assert [f.header.frame_index for f in got] == list(range(30))
     assert all(f.encoding == "jpeg" and image_of(f).shape == (360, 640, 3) for f in got)
-    span = (got[-1].header.capture_time_ns - got[0].header.capture_time_ns) / 1e9
-    assert span == pytest.approx(29 / 30, abs=0.15)  # paced at the file's 30 frames/s
+    # Paced at the file's 30 frames/s: frame k never goes out before k / 30 s after frame 0
+    # (a loaded machine may make it later; the schedule itself is test_pacing's, on a clock
+    # the test moves).
+    start = got[0].header.capture_time_ns
+    early = [f.header.frame_index for f in got
+             if f.header.capture_time_ns - start < f.header.frame_index * 1e9 / 30 - 2e6]
+    assert not early, f"frames sent before their time: {early}"
     assert [f.header.media_time_ns for f in got] == [round(i * 1e9 / 30) for i in range(30)]
     assert len(ends) == 1 and ends[0].total_frames == 30 and ends[0].reason == "end_of_file"
 
