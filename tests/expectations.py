@@ -15,7 +15,8 @@ the frames whose poses are unreliable) no model of the recipe should do on this 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -49,3 +50,13 @@ def check_poses(reliable: Sequence[bool], reasons: Sequence[str],
         jumps = np.flatnonzero(np.any(steps > allowed[:, None], axis=1))
         assert not len(jumps), [(int(frames[k]), int(frames[k + 1]), steps[k].round(1).tolist())
                                 for k in jumps]
+
+
+def pose_angles(poses: Mapping[int, Any], frames: int = FRAMES) -> np.ndarray:
+    """(``frames``, 3) yaw, pitch and roll in degrees of pose messages by frame index, for
+    :func:`check_poses`; NaN where a frame's pose is unreliable or missing."""
+    angles = np.full((frames, 3), np.nan)
+    for k, pose in poses.items():
+        if pose.reliable:
+            angles[k] = pose.yaw_deg, pose.pitch_deg, pose.roll_deg
+    return angles

@@ -114,6 +114,7 @@ def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
           opts: ExpressionOptions) -> None:
     """Classify fits until stopped: receive a fit, take its frame, call the operator,
     publish."""
+    fits = svc.messages("fit", capacity=opts.capacity)  # subscribed before ready()
     if classifier is not None:
         frames = svc.recent("frame", min(max(FRAMES_KEPT, opts.capacity + 16), MAX_FRAMES_KEPT),
                             grey_frame)
@@ -124,7 +125,7 @@ def serve(svc: Service, classifier: ExpressionClassifier | None, why: str,
         svc.set_state("degraded", why)  # before ready(): its first status says so
         svc.ready()
     unclassified, run = Unclassified(), None
-    for got in svc.messages("fit", capacity=opts.capacity):
+    for got in fits:
         fit = got.message
         assert isinstance(fit, Fit)
         if classifier is None:

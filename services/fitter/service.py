@@ -40,8 +40,9 @@ def serve(svc: Service, op: FitOperator, opts: FitterOptions) -> None:
     op.search_with(detector)
     run: tuple[str | None, tuple[int, int]] = (None, (0, 0))
     warp, name = op.warp, op.fitter.name
+    frames = svc.messages("frame", capacity=opts.capacity, count_lost=True)  # before ready()
     svc.ready(f"{name}, warp {warp.path}")
-    for got in svc.messages("frame", capacity=opts.capacity, count_lost=True):
+    for got in frames:
         frame = got.message
         assert isinstance(frame, Frame)
         h, size = frame.header, (frame.width, frame.height)

@@ -25,18 +25,22 @@ class RealTimePacer:
     fps : float
     sleep : callable
         ``sleep(seconds) -> bool``, returning True to abandon the wait (a stop).
+    clock : callable
+        Seconds on a monotonic clock (the one ``sleep`` waits on).
     """
 
-    def __init__(self, fps: float, sleep: Callable[[float], bool]) -> None:
+    def __init__(self, fps: float, sleep: Callable[[float], bool],
+                 clock: Callable[[], float] = time.monotonic) -> None:
         if not fps > 0:
             raise ValueError(f"fps must be positive, got {fps}")
         self.period = 1.0 / fps
         self._sleep = sleep
+        self._clock = clock
         self._start: float | None = None
 
     def wait(self, k: int) -> bool:
         """Wait for frame ``k`` (0-based); False when the wait was abandoned."""
-        now = time.monotonic()
+        now = self._clock()
         if self._start is None:
             self._start = now
         left = self._start + k * self.period - now
@@ -52,15 +56,19 @@ class CreditWindow:
         Frames in flight, >= 1.
     timeout : float
         Seconds to wait for an answer before going on without it.
+    clock : callable
+        Seconds on a monotonic clock, which the timeout is counted on.
     """
 
-    def __init__(self, window: int = 2, timeout: float = 1.0) -> None:
+    def __init__(self, window: int = 2, timeout: float = 1.0,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         if window < 1:
             raise ValueError(f"window must be >= 1, got {window}")
         self.window = window
         self.timeout = timeout
         self.answered = -1
         self.timeouts = 0
+        self._clock = clock
         self._cond = threading.Condition()
         self._stopped = False
 
@@ -88,10 +96,10 @@ class CreditWindow:
         On a timeout the missing answers are given up on (counted in
         :attr:`timeouts`) and the window moves on.
         """
-        deadline = time.monotonic() + self.timeout
+        deadline = self._clock() + self.timeout
         with self._cond:
             while k - self.answered > self.window and not self._stopped:
-                left = deadline - time.monotonic()
+                left = deadline - self._clock()
                 if left <= 0:
                     self.timeouts += 1
                     self.answered = k - self.window

@@ -28,7 +28,7 @@ import logging
 import struct
 import threading
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import BinaryIO
@@ -65,6 +65,8 @@ class RecordWriter:
     keys : bytes
         The run's keys document (:func:`proto.auth.keys_document`; empty: a run without
         keys), its first record.
+    clock : callable
+        Seconds on a monotonic clock, which :data:`FLUSH_PERIOD` is counted on.
 
     Raises
     ------
@@ -72,8 +74,10 @@ class RecordWriter:
         When the file cannot be created or its first bytes written.
     """
 
-    def __init__(self, path: str | Path, keys: bytes = b"") -> None:
+    def __init__(self, path: str | Path, keys: bytes = b"",
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self.path = Path(path)
+        self._clock = clock
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.count = 0
         self.late = 0
@@ -85,7 +89,7 @@ class RecordWriter:
         self._file: BinaryIO | None = open(self.path, "wb")  # noqa: SIM115 (closed in close())
         self._file.write(MAGIC + _LENGTH.pack(len(keys)) + keys)
         self._file.flush()
-        self._flushed = time.monotonic()
+        self._flushed = self._clock()
 
     def write(self, payload: bytes) -> None:
         """Append one encoded message (flushed within :data:`FLUSH_PERIOD`); after
@@ -98,7 +102,7 @@ class RecordWriter:
             try:
                 self._file.write(_LENGTH.pack(len(payload)) + payload)
                 self.count += 1
-                if time.monotonic() - self._flushed >= FLUSH_PERIOD:
+                if self._clock() - self._flushed >= FLUSH_PERIOD:
                     self._flush()
             except OSError as exc:
                 self._fail(exc)
@@ -115,7 +119,7 @@ class RecordWriter:
     def _flush(self) -> None:
         assert self._file is not None
         self._file.flush()
-        self._flushed = time.monotonic()
+        self._flushed = self._clock()
 
     def _fail(self, exc: OSError) -> None:
         """Stop writing after a failed write; what reached the file stays."""

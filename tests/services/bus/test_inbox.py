@@ -45,7 +45,7 @@ def test_inbox_keeps_the_latest_and_counts_what_it_overwrote(
     with Service("sink", sink_bus, handle_signals=False) as sink:
         inbox = sink.inbox("frame", capacity=2)
         sink.ready()
-        assert peer.wait_for_alive(["sink"], 10) == []
+        assert peer.wait_for_alive(["sink"], 60) == []
         for i in range(6):
             peer.put(peer.key("frame"), frame(peer, i), MUST_ARRIVE)
         wait_until(lambda: inbox.dropped + inbox.pending() == 6)
@@ -63,7 +63,7 @@ def test_a_flood_of_invalid_and_foreign_messages_displaces_no_real_frame(
     with Service("sink", sink_bus, handle_signals=False) as sink:
         inbox = sink.inbox("frame", capacity=2)
         sink.ready()
-        assert peer.wait_for_alive(["sink"], 10) == []
+        assert peer.wait_for_alive(["sink"], 60) == []
         key = peer.key("frame")
         peer.put(key, frame(peer, 0), MUST_ARRIVE)
         for k in range(invalid):
@@ -87,12 +87,12 @@ def test_rejected_messages_are_counted_and_each_reason_logged_once(
                                                    handle_signals=False) as sink:
         inbox = sink.inbox("frame", capacity=16)
         sink.ready()
-        assert peer.wait_for_alive(["sink"], 10) == []
+        assert peer.wait_for_alive(["sink"], 60) == []
         for payload in [b"\x00garbage", b"\x01garbage", encode(eos), b"",
                         frame(peer, 3, stream="elsewhere")]:
             peer.put(peer.key("frame"), payload, MUST_ARRIVE)
         peer.put(peer.key("frame"), frame(peer, 7), MUST_ARRIVE)
-        got = inbox.get(5.0)
+        got = inbox.get(60.0)
         assert got is not None and got.message.header.frame_index == 7
         assert sink.stats.rejected == 5
     lines = [r.getMessage() for r in caplog.records if "rejected input" in r.getMessage()]
@@ -109,7 +109,7 @@ def test_gaps_in_a_runs_frame_numbers_are_counted_as_lost(
         inbox = sink.inbox("frame", capacity=32, count_lost=True)
         others = sink.latest("frame")  # counts nothing: frames it misses are dropped by design
         sink.ready()
-        assert peer.wait_for_alive(["sink"], 10) == []
+        assert peer.wait_for_alive(["sink"], 60) == []
         for run, index in [("run-a", 0), ("run-a", 1), ("run-a", 3), ("run-a", 6),
                            ("run-b", 0), ("run-b", 2)]:
             peer.put(peer.key("frame"), frame(peer, index, run=run), MUST_ARRIVE)
@@ -124,7 +124,7 @@ def test_latest_and_recent_keep_what_they_promise(
         latest = sink.latest("frame")
         recent = sink.recent("frame", 3)
         sink.ready()
-        assert peer.wait_for_alive(["sink"], 10) == []
+        assert peer.wait_for_alive(["sink"], 60) == []
         for i in range(5):
             peer.put(peer.key("frame"), frame(peer, i), MUST_ARRIVE)
         wait_until(lambda: (m := latest.peek()) is not None and m.header.frame_index == 4)
@@ -141,7 +141,7 @@ def test_recent_waits_for_a_message_that_is_still_on_its_way(
     with Service("sink", sink_bus, handle_signals=False) as sink:
         recent = sink.recent("frame", 3)
         sink.ready()
-        assert peer.wait_for_alive(["sink"], 10) == []
+        assert peer.wait_for_alive(["sink"], 60) == []
         started = time.monotonic()
         assert recent.take(RUN, 7, timeout=0.2) is None  # never sent: waited for, then None
         assert time.monotonic() - started >= 0.2
@@ -153,4 +153,5 @@ def test_recent_waits_for_a_message_that_is_still_on_its_way(
         assert got is not None and got.message.header.frame_index == 8
         recent.wake()
         started = time.monotonic()
-        assert recent.take(RUN, 9, timeout=20.0) is None and time.monotonic() - started < 1.0
+        assert recent.take(RUN, 9, timeout=60.0) is None
+        assert time.monotonic() - started < 30.0  # woken: it did not wait its timeout out

@@ -27,7 +27,7 @@ from services.pose.service import PoseCounts
 from services.stack.launcher import Stack
 from services.stack.options import StackOptions
 from services.stack.recorder import load_messages
-from tests.expectations import FRAMES, GOOD_SHARE, check_poses
+from tests.expectations import FRAMES, GOOD_SHARE, check_poses, pose_angles
 
 
 def marked_face(data_dir: Path, name: str) -> tuple[np.ndarray, tuple[int, int]]:
@@ -166,7 +166,8 @@ def test_the_stack_runs_the_calibrating_estimator_and_its_status_counts(
     fits = [m for m in messages if m.KIND == "fit" and len(m.landmarks)]
     poses = [m for m in messages if m.KIND == "pose"]
     assert len(fits) >= GOOD_SHARE * FRAMES and len(poses) == len(fits)
-    check_poses([p.reliable for p in poses], [p.reason for p in poses])
+    check_poses([p.reliable for p in poses], [p.reason for p in poses],
+                pose_angles({p.header.frame_index: p for p in poses}))
     assert all(0.0 < p.angle_sd_deg < 3.0 for p in poses if p.reliable)
     status = [m for m in messages if m.KIND == "status" and m.service == "pose"]
     assert status and "fits without a face; head model refined" in status[-1].message

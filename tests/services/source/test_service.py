@@ -8,7 +8,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from proto import EndOfStream, Frame
 from services.bus.connection import BusOptions
@@ -19,7 +18,7 @@ from services.source.service import frame_problem
 
 
 def source_argv(peer: Service, bus: BusOptions, *args: str) -> list[str]:
-    return ["service", "source", *options_argv(bus), "--wait-for", "probe", "--wait-timeout", "20",
+    return ["service", "source", *options_argv(bus), "--wait-for", "probe", "--wait-timeout", "60",
             *args]
 
 
@@ -30,11 +29,19 @@ def collect(peer: Service) -> tuple[list[Frame], list[EndOfStream]]:
     return frames, eos  # type: ignore[return-value]
 
 
-def drain(inbox) -> list:
+def drain(inbox, first_within: float = 0.2) -> list:
+    """What ``inbox`` holds, waiting up to ``first_within`` s for the first message."""
     out = []
-    while (got := inbox.get(0.2)) is not None:
+    while (got := inbox.get(first_within if not out else 0.2)) is not None:
         out.append(got.message)
     return out
+
+
+def received(frames, eos) -> tuple[list[Frame], list[EndOfStream]]:
+    """The frames and ends of stream, once the end of stream arrived: it went out last, on
+    the same link, so every frame before it is in by then, however slow the machine."""
+    ends = drain(eos, first_within=60.0)
+    return drain(frames), ends
 
 
 def test_real_time_jpeg_frames_then_end_of_stream(
@@ -45,11 +52,16 @@ def test_real_time_jpeg_frames_then_end_of_stream(
     done = run_cli(*source_argv(peer, bus_pair[1], "--video", str(single_face),
                                 "--max-frames", "30", "--jpeg", "85"))
     assert done.returncode == 0, done.stderr
-    got, ends = drain(frames), drain(eos)
+    got, ends = received(frames, eos)
     assert [f.header.frame_index for f in got] == list(range(30))
     assert all(f.encoding == "jpeg" and image_of(f).shape == (360, 640, 3) for f in got)
-    span = (got[-1].header.capture_time_ns - got[0].header.capture_time_ns) / 1e9
-    assert span == pytest.approx(29 / 30, abs=0.15)  # paced at the file's 30 frames/s
+    # Paced at the file's 30 frames/s: frame k never goes out before k / 30 s after frame 0
+    # (a loaded machine may make it later; the schedule itself is test_pacing's, on a clock
+    # the test moves).
+    start = got[0].header.capture_time_ns
+    early = [f.header.frame_index for f in got
+             if f.header.capture_time_ns - start < f.header.frame_index * 1e9 / 30 - 2e6]
+    assert not early, f"frames sent before their time: {early}"
     assert [f.header.media_time_ns for f in got] == [round(i * 1e9 / 30) for i in range(30)]
     assert len(ends) == 1 and ends[0].total_frames == 30 and ends[0].reason == "end_of_file"
 
@@ -64,13 +76,13 @@ def test_fast_pacing_goes_on_without_answers_after_the_timeout(
                                 "--max-frames", "6", "--pace", "fast", "--window", "2",
                                 "--answer-timeout", "0.2"))
     assert done.returncode == 0, done.stderr
-    got = drain(frames)
+    got, ends = received(frames, eos)
     assert [f.header.frame_index for f in got] == list(range(6))
     assert all(isinstance(f.image, np.ndarray) for f in got)  # raw by default
     # The file's clock, not the pace: frame i is at i / 30 s however fast it went out.
     assert [f.header.media_time_ns for f in got] == [round(i * 1e9 / 30) for i in range(6)]
     assert time.monotonic() - start >= 0.8  # frames 2..5 each waited for a lost answer
-    assert drain(eos)[0].total_frames == 6
+    assert ends[0].total_frames == 6
 
 
 def test_a_url_that_does_not_answer_fails_with_end_of_stream_and_exit_1(
@@ -84,7 +96,7 @@ def test_a_url_that_does_not_answer_fails_with_end_of_stream_and_exit_1(
                                 f"rtsp://127.0.0.1:{free_port()}/nothing"), timeout=60)
     assert done.returncode == 1
     assert "OpenCV cannot open it" in done.stderr
-    ends = drain(eos)
+    ends = drain(eos, first_within=60.0)
     assert len(ends) == 1 and ends[0].total_frames == 0 and ends[0].reason.startswith("error:")
 
 

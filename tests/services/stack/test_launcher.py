@@ -35,7 +35,7 @@ from services.stack.options import StackOptions
 from services.stack.outcome import EXIT_FAILED, exit_code, unanswered_problem
 from services.stack.preflight import prepare_models
 from services.stack.recorder import load_messages, read_recording
-from tests.expectations import FRAMES, GOOD_SHARE, check_poses
+from tests.expectations import FRAMES, GOOD_SHARE, check_poses, pose_angles
 from tests.videos import decoded_frames
 
 RERUN_CLI = Path(sys.executable).with_name("rerun")
@@ -53,11 +53,12 @@ def by_frame(messages: list, kind: str) -> dict[int, object]:
 
 
 def assert_accounted(summary: dict, service: str = "fitter") -> None:
-    """Every frame published was answered by ``service`` or counted as dropped or rejected."""
+    """Every frame published was taken by ``service`` or counted as dropped, and every frame
+    it took was answered with one message."""
     s = summary["services"][service]
     assert s["frames_in"] + s["dropped"] == summary["total_frames"], s
     assert s["lost"] == 0 and summary["frames_lost"] == 0, s
-    assert s["frames_out"] == s["frames_in"] - s["rejected"] or s["rejected"] == 0
+    assert s["failed"] == 0 and s["frames_out"] == s["frames_in"], s
 
 
 def rrd_entities(path: Path) -> set[str]:
@@ -102,7 +103,8 @@ def test_single_face_gpu_warp_every_frame_gets_its_results(
     poses = by_frame(messages, "pose")
     assert sorted(poses) == list(range(72))
     good = [k for k in range(72) if not fits[k].failed]
-    check_poses([poses[k].reliable for k in good], [poses[k].reason for k in good])
+    check_poses([poses[k].reliable for k in good], [poses[k].reason for k in good],
+                pose_angles(poses))
     # Every fit gets its expression: a label from the first good frames on (the
     # person-independent model decides while the reference is made), else the reason.
     expressions = by_frame(messages, "expression")
@@ -384,10 +386,8 @@ def test_services_die_with_a_killed_launcher_and_the_next_run_is_clean(
         assert any(p.stat().st_size >= POOL_IMAGES * 640 * 360 * 3 for p in segments), segments
         launcher.send_signal(signal.SIGKILL)
         launcher.wait(10)
-        deadline = time.monotonic() + 2.0
-        while any(_running(pid) for pid in children) and time.monotonic() < deadline:
-            time.sleep(0.02)
-        assert not [pid for pid in children if _running(pid)], "services outlived the launcher"
+        wait_for(lambda: not any(_running(pid) for pid in children),
+                 "services outlived the launcher", timeout=60)
     finally:
         if launcher.poll() is None:
             launcher.kill()
@@ -448,8 +448,12 @@ def test_frames_lost_to_a_stopped_consumer_are_counted_and_fail_the_run(
         wait_for(lambda: stack.monitor.counts["fit"] >= 10, "the stack produced no fits")
         pid = stack.supervisor.pid("fitter")
         assert pid is not None
+        published = stack.monitor.statuses["source"].frames_out
         os.kill(pid, signal.SIGSTOP)
-        time.sleep(3.0)
+        # 3 s of video go out while the fitter is stopped (however long a loaded machine
+        # takes to publish them), more than its inbox holds.
+        wait_for(lambda: stack.monitor.statuses["source"].frames_out >= published + 90,
+                 "the source published nothing while the fitter was stopped", timeout=120)
         os.kill(pid, signal.SIGCONT)
         assert stack.wait() == "done"
     summary = stack.summary()

@@ -8,7 +8,6 @@ import re
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -76,28 +75,33 @@ def test_a_damaged_recording_gives_every_record_before_the_damage(
 
 
 def test_a_writer_killed_mid_run_leaves_a_readable_recording(tmp_path: Path) -> None:
-    """The writer flushes at least once a second: SIGKILL loses at most the last second."""
+    """The writer flushes once a second of its clock has passed since its last flush:
+    SIGKILL loses at most the last second. Its clock moves 0.3 s a record here."""
     path = tmp_path / "killed.rec"
-    payload = encode(messages()[0]).hex()
+    payload = encode(messages()[1]).hex()
+    assert len(payload) // 2 * 11 < 4096  # less than the file's buffer: only flushes write
     script = (
-        "import sys, time\n"
+        "import sys\n"
         "from services.stack.recorder import RecordWriter\n"
-        f"w = RecordWriter({str(path)!r})\n"
+        "now = [0.0]\n"
+        f"w = RecordWriter({str(path)!r}, clock=lambda: now[0])\n"
         f"p = bytes.fromhex({payload!r})\n"
-        "for i in range(100000):\n"
+        "for i in range(11):\n"
+        "    now[0] = 0.3 * i\n"
         "    w.write(p)\n"
-        "    if i == 50: print('written', flush=True)\n"
-        "    time.sleep(0.01)\n"
+        "print('written', flush=True)\n"
+        "sys.stdin.read()\n"  # until killed
     )
     env = os.environ | {"PYTHONPATH": str(REPO_ROOT)}
-    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True,
-                            env=env)
+    proc = subprocess.Popen([sys.executable, "-c", script], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, text=True, env=env)
     assert proc.stdout is not None and proc.stdout.readline().strip() == "written"
-    time.sleep(2.5)
     proc.send_signal(signal.SIGKILL)
-    proc.wait(10)
+    proc.wait(60)
+    # Flushed at records 4 (1.2 s) and 8 (2.4 s): 0-8 are in the file; 9 and 10 (0.6 s) may
+    # not be.
     recording = read_recording(path)
-    assert len(recording.messages) >= 100  # all but the last second of about 2.5 s
+    assert 9 <= len(recording.messages) <= 11
 
 
 def test_messages_after_close_are_left_out_and_counted(tmp_path: Path) -> None:
