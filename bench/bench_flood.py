@@ -17,12 +17,12 @@ from __future__ import annotations
 import os
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 
 from aamcore.config import data_root
 from bench import options
+from bench.bench_soak import rss_mb
 from bench.targets import Target
 from proto import Frame, Header, encode
 from services.bus.connection import BusOptions
@@ -33,16 +33,6 @@ from services.stack.options import parse_run_args
 MEMORY = Target("every process's memory after the flood, against its baseline (worst)", "<=",
                 1.10, "x")
 TARGETS = (MEMORY,)
-
-
-def rss_mb(pid: int) -> float:
-    try:
-        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024
-    except OSError:
-        pass
-    return float("nan")
 
 
 def flood(intruder: Service, run: str, until: float) -> int:
