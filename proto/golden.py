@@ -94,6 +94,7 @@ def _head_pose() -> kinds.HeadPose:
         reliable=True,
         reason="",
         angle_sd_deg=0.75,
+        covered=np.array([[300.5, 400.25], [310.0, 402.5], [320.75, 401.0]]),  # the lips
     )
 
 

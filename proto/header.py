@@ -16,7 +16,7 @@ from proto.fields import Int, Str, check_keys, is_int, type_name
 from proto.keys import check_name
 from proto.limits import ProtoError
 
-SCHEMA_VERSION = 7
+SCHEMA_VERSION = 8
 """Version of the message contract; any change to a field or a rule bumps it.
 Version 2: ``run_id`` in the header; ``fit.similarity`` (was ``pose``) and the
 fit's frame size; ``status.lost`` and ``status.ignored``. Version 3:

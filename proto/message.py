@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar, Self
 
 import msgpack
+import numpy as np
 
 from proto.arrays import ArraySpec
 from proto.fields import Int, Spec, Str, check_keys, type_name
@@ -28,9 +29,15 @@ def spec(s: Spec) -> Any:
     return field(metadata={"spec": s})
 
 
-def small(dtype: str, *shape: int | None) -> Any:
-    """Declare a small array field (at most ``MAX_SMALL_ARRAY_BYTES``, no NaN)."""
-    return spec(ArraySpec(dtype, shape, MAX_SMALL_ARRAY_BYTES))
+def small(dtype: str, *shape: int | None, empty: bool = False) -> Any:
+    """Declare a small array field (at most ``MAX_SMALL_ARRAY_BYTES``, no NaN); with
+    ``empty``, its Python default is an array with none of its free dimension (the wire
+    always carries it)."""
+    s = ArraySpec(dtype, shape, MAX_SMALL_ARRAY_BYTES)
+    if not empty:
+        return spec(s)
+    size = tuple(0 if n is None else n for n in shape)
+    return field(default_factory=lambda: np.zeros(size, dtype), metadata={"spec": s})
 
 
 WIDTH = Int(1, MAX_IMAGE_WIDTH)

@@ -213,6 +213,10 @@ class HeadPose(Message):
         >= 0; NaN when the estimator does not predict it.
     face_id : int
         The ``face_id`` of the fit it comes from.
+    covered : numpy.ndarray
+        ``(k, 2)`` float32 pixel positions of the fit's landmarks flagged occluded (a hand or
+        an object in front of the face): the AR stage hides the glasses around them.
+        ``(0, 2)`` when none is (or the fit has no occlusion flags).
     """
 
     KIND: ClassVar[str] = "pose"
@@ -230,6 +234,7 @@ class HeadPose(Message):
     reason: str = spec(Str())
     angle_sd_deg: float = spec(Float(0.0, math.inf, allow_nan=True))
     face_id: int = face_field(0)
+    covered: np.ndarray = small("f4", None, 2, empty=True)
 
     def _check(self) -> None:
         k = self.intrinsics

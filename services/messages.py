@@ -46,7 +46,7 @@ def pose_of(pose: HeadPose) -> FacePose:
     return FacePose(pose.face_id, pose.rotation, pose.translation_mm,
                     (pose.roll_deg, pose.pitch_deg, pose.yaw_deg), pose.intrinsics,
                     pose.reliable, pose.reason, pose.iterations, pose.angle_sd_deg,
-                    pose.intrinsics_source)
+                    pose.intrinsics_source, pose.covered)
 
 
 def fit_message(header: Header, face: FaceFit, warp_path: str, size: tuple[int, int],
@@ -94,7 +94,8 @@ def pose_message(svc: Service, fit: Fit, pose: FacePose) -> HeadPose:
     roll, pitch, yaw = pose.angles_deg
     return HeadPose(svc.header_for(fit), pose.rotation, pose.translation_mm, roll, pitch, yaw,
                     pose.K, fit.image_width, fit.image_height, pose.camera, pose.iterations,
-                    pose.reliable, pose.reason, pose.angle_sd_deg, fit.face_id)
+                    pose.reliable, pose.reason, pose.angle_sd_deg, fit.face_id,
+                    EMPTY_POINTS if pose.covered is None else pose.covered.astype(np.float32))
 
 
 def expression_message(svc: Service, fit: Fit, found: Recognition) -> Expression:

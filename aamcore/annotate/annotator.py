@@ -41,7 +41,8 @@ class Annotator:
         image = np.array(frame, dtype=np.uint8, copy=True)
         if image.ndim == 2:
             image = np.repeat(image[:, :, None], 3, axis=2)
-        poses = [FacePose(f.face_id, f.rotation, f.translation_mm, K=K, reliable=True)
+        poses = [FacePose(f.face_id, f.rotation, f.translation_mm, K=K, reliable=True,
+                          covered=_covered(f))
                  for f in faces if f.pose_reliable and f.rotation is not None]
         if poses and K is not None and self.glasses and self._can_draw(image):
             image = self.overlay(image, poses)
@@ -70,3 +71,10 @@ class Annotator:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+
+def _covered(face: FaceResult) -> np.ndarray | None:
+    """The landmarks (k, 2) of ``face`` flagged occluded (None without flags for them)."""
+    flags = face.occluded
+    if flags is None or len(flags) != len(face.landmarks):
+        return None
+    return np.asarray(face.landmarks, np.float64)[np.asarray(flags, bool)]

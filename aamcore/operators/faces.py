@@ -107,6 +107,9 @@ class FacePose:
         The largest predicted sd of the angles (NaN where not known).
     camera : str
         Where ``K`` comes from (``assumed:fov60``, ``calibration:cam.yaml``).
+    covered : (k, 2) array or None
+        Pixels of the fit's landmarks flagged occluded (a hand, an object in front of the
+        face): the overlay hides the glasses there. None or empty: nothing covered.
     """
 
     face_id: int
@@ -119,6 +122,7 @@ class FacePose:
     iterations: int = 0
     angle_sd_deg: float = math.nan
     camera: str = ""
+    covered: np.ndarray | None = None
 
     @property
     def found(self) -> bool:

@@ -1,5 +1,6 @@
 """The overlay stage: 3D glasses drawn on a frame at the head pose of each of its faces
-(thesis ch. 15), the head hiding what lies behind it."""
+(thesis ch. 15), the head hiding what lies behind it and a hand or an object in front of
+the face (its covered landmarks, :mod:`aamcore.ar.cover`) hiding the glasses."""
 
 from __future__ import annotations
 
@@ -37,7 +38,8 @@ class OverlayOperator:
 
     def __call__(self, image: np.ndarray, poses: Sequence[FacePose]) -> np.ndarray:
         """``image`` ((H, W, 3) BGR uint8) with the glasses of every pose drawn
-        (:meth:`draws`), a new image.
+        (:meth:`draws`), a new image; where a pose's ``covered`` landmarks say a hand or an
+        object covers the face, the frame shows through.
 
         Raises
         ------
@@ -48,8 +50,21 @@ class OverlayOperator:
         for pose in poses:
             if self.draws(pose):
                 renderer = self.renderer(out.shape[1], out.shape[0])
-                out = renderer.render(out, pose.rotation, pose.translation_mm, pose.K)
+                drawn = renderer.render(out, pose.rotation, pose.translation_mm, pose.K)
+                covered = self.covered(pose, out.shape[:2])
+                if covered is not None:
+                    drawn[covered] = out[covered]
+                out = drawn
         return out
+
+    def covered(self, pose: FacePose, shape: tuple[int, int]) -> np.ndarray | None:
+        """The pixels (H, W) bool where something in front of the face of ``pose`` hides
+        its glasses (None: nothing, or ``hide_covered`` off)."""
+        if not self.options.hide_covered or pose.covered is None or not len(pose.covered):
+            return None
+        from aamcore.ar.cover import cover_mask, cover_radius
+
+        return cover_mask(pose.covered, shape, cover_radius(pose.K, pose.translation_mm))
 
     def renderer(self, width: int, height: int) -> Any:
         """The renderer of frames of ``width`` x ``height`` (made, with the context, at the

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
+
 from aamcore.operators.faces import NO_FACE, FaceFit, FacePose, FrameRef
 from aamcore.operators.options import PIPELINE, PoseOptions
 from aamcore.operators.per_face import FORGET_FRAMES, PerFace
@@ -72,6 +74,8 @@ def _face_pose(face: FaceFit, pose: HeadPose, camera: str) -> FacePose:
     est = pose.estimate
     reason = f"fit failed: {face.reason}" if face.failed else pose.reason
     roll, pitch, yaw = est.rpy
+    covered = (None if face.failed or face.occluded is None
+               else np.asarray(face.points, np.float64)[np.asarray(face.occluded, bool)])
     return FacePose(face.face_id, est.R, est.T, (float(roll), float(pitch), float(yaw)),
                     pose.camera.K, not reason, reason, int(est.iterations), pose.angle_sd_deg,
-                    camera)
+                    camera, covered)

@@ -30,9 +30,9 @@ from proto.limits import ProtoError
 
 KEY = bytes(range(KEY_BYTES))
 PUBLIC = public_key(KEY)
-DIGEST = "5226194dbe5befdf0274b47e06adc4aafee05e709f1c8680fc6fd4bb6caf8c1b"
-SIGNATURE = ("d68c353e37c2e72ee1b60b8af927d7ed084324bd6e7f18244922513564c9dafb"
-             "677735faf641f17e171a4f63e56e22ea4cd3a2b0edecc42adcf82d775ffd7301")
+DIGEST = "51421c8dfbaed077943c9d2f87b4f55b843708eaafb8d32872471f9ca5d8ca25"
+SIGNATURE = ("b245d78f8877675727e86920a3b2febc1a6477fd9ca3405d2d42fd3df2dc0cef"
+             "2fafd1ee369b74117604f0e04295a6be43f8edab607632524816f2a8c6297b09")
 
 
 def _header(index: int = 42) -> Header:
