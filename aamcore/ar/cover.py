@@ -14,7 +14,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-COVER_MM = 12.0
+COVER_MM = 10.0
 """Radius of the band around a covered landmark, millimetres at the head's distance: about
 the distance from an eye's landmarks to the rim of a lens."""
 MIN_NEIGHBOURS = 2
