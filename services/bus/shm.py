@@ -11,10 +11,13 @@ Where shared memory is missing, full (its readers still hold every buffer of the
 too small for the message (one larger than the pool: a JPEG's size varies), the message
 goes over the network as any other: the run goes on with one warning line per reason, and
 each such image is counted (:meth:`SharedImages.line`, in the producer's status and the
-run's summary). The producer never waits for a buffer: a reader that holds buffers too long
-costs it shared memory, never time. Zenoh removes a pool's segment when its process ends,
-and the segments of killed processes when the next pool is made (its orphaned-segment
-clean-up: no process has them open).
+run's summary). A pool full for a moment is a loaded machine's readers lagging, not a
+fault: said once as information, and warned of only when it stays full for
+:data:`FULL_POOLS` pools' worth of images in a row (a reader holding its buffers). The
+producer never waits for a buffer: a reader that holds buffers too long costs it shared
+memory, never time. Zenoh removes a pool's segment when its process ends, and the segments
+of killed processes when the next pool is made (its orphaned-segment clean-up: no process
+has them open).
 """
 
 from __future__ import annotations
@@ -34,6 +37,8 @@ the CPU's cache: a copy of a 640 x 360 frame into a pool of 8 takes 0.04 ms, int
 a few are in use at a time; a reader behind by more sends the next ones over the network."""
 SLACK = 4096
 """Bytes of the pool per image beyond the image (the allocator's own)."""
+FULL_POOLS = 3
+"""Pools' worth of images in a row that must find the pool full before a warning."""
 REASONS = ("unavailable", "full", "too small")
 """Why an image went over the network, as counted."""
 
@@ -67,6 +72,7 @@ class SharedImages:
         self._provider: Any = None
         self._policy: Any = None
         self._unavailable = images <= 0 or not available
+        self._full_in_a_row = 0
 
     def payload(self, parts: Sequence[Buffer]) -> Any:
         """What to put for a payload made of ``parts``: a shared-memory buffer holding them
@@ -102,11 +108,23 @@ class SharedImages:
         import zenoh
 
         try:
-            return self._provider.alloc(size, self._policy)
+            buffer = self._provider.alloc(size, self._policy)
         except zenoh.ZError as exc:
-            self._over_network("full", f"the shared-memory pool is full ({exc}): its readers "
-                               "still hold every buffer")
+            self._full(str(exc))
             return None
+        self._full_in_a_row = 0
+        return buffer
+
+    def _full(self, why: str) -> None:
+        if not self.network["full"]:
+            self.log.info("the shared-memory pool is full (%s): its readers still hold every "
+                          "buffer; images go over the network until one is free (counted)", why)
+        self._full_in_a_row += 1
+        if self._full_in_a_row == FULL_POOLS * self.images:
+            self.log.warning("the shared-memory pool has been full for %d images in a row: a "
+                             "reader holds its buffers; images go over the network instead "
+                             "(counted)", self._full_in_a_row)
+        self.network["full"] += 1
 
     def _open(self, pool_bytes: int) -> bool:
         try:
