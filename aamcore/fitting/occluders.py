@@ -48,17 +48,15 @@ def covered_shares(mask: np.ndarray, points: np.ndarray, outside_covers: bool = 
     dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
     disc = dx * dx + dy * dy <= radius * radius
     dx, dy = dx[disc], dy[disc]
-    out = np.zeros(len(points))
     centres = np.round(np.where(np.isfinite(points), points, -1e6)).astype(np.int64)
-    for n, (x, y) in enumerate(centres):
-        xs, ys = x + dx, y + dy
-        inside = (xs >= 0) & (xs < width) & (ys >= 0) & (ys < height)
-        hidden = np.count_nonzero(mask[ys[inside], xs[inside]])
-        if outside_covers:
-            out[n] = (hidden + np.count_nonzero(~inside)) / len(xs)
-        elif inside.any():
-            out[n] = hidden / np.count_nonzero(inside)
-    return out
+    xs, ys = centres[:, :1] + dx, centres[:, 1:] + dy  # (N, D): each landmark's disc
+    inside = (xs >= 0) & (xs < width) & (ys >= 0) & (ys < height)
+    hidden = np.zeros(xs.shape, bool)
+    hidden[inside] = mask[ys[inside], xs[inside]] != 0
+    hidden_n, inside_n = hidden.sum(axis=1), inside.sum(axis=1)
+    if outside_covers:
+        return (hidden_n + (len(dx) - inside_n)) / len(dx)
+    return np.where(inside_n > 0, hidden_n / np.maximum(inside_n, 1), 0.0)
 
 
 def face_colour(image: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -85,10 +83,15 @@ def draw_occluder(image: np.ndarray, points: np.ndarray, rng: np.random.Generato
     soft = rng.uniform(0, 2.0)
     if soft > 0.3 and kind != "glasses":
         alpha = cv2.GaussianBlur(alpha, (0, 0), soft)
-    a = alpha[..., None]
-    out = image.astype(np.float32) * (1 - a) + layer * a
     mask = hidden if hidden is not None else alpha > 0.5
-    return np.clip(out, 0, 255).astype(np.uint8), mask
+    out = image.copy()
+    ys, xs = np.nonzero(alpha)
+    if len(xs):  # blended where the occluder lies: elsewhere alpha 0 leaves the image as it is
+        box = np.s_[ys.min():ys.max() + 1, xs.min():xs.max() + 1]
+        a = alpha[box][..., None]
+        blended = image[box].astype(np.float32) * (1 - a) + layer[box] * a
+        out[box] = np.clip(blended, 0, 255).astype(np.uint8)
+    return out, mask
 
 
 def edge_crop(image: np.ndarray, points: np.ndarray, rng: np.random.Generator,
