@@ -184,7 +184,8 @@ class OverlayOptions(Settings):
     all_poses: bool = setting(False, "draw the glasses at unreliable poses too",
                               flag="--all-poses")
     hide_covered: bool = setting(True, "hide the glasses where a hand or an object covers "
-                                 "the face (the fit's occluded landmarks)")
+                                 "the face (the fit's occluded landmarks)",
+                                 flag="--hide-covered")
 
 
 @dataclass(frozen=True)
