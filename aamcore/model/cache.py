@@ -1,15 +1,19 @@
 """Train models on first use and keep them in the cache folder.
 
 A cached model's file name is derived from the dataset, the options and the
-model format version, so a change of any of them trains a new one.
+model format version, so a change of any of them trains a new one. Processes that want
+the same model at once train it once: the first takes the file's lock
+(``NAME.npz.lock`` beside it) and trains, the others wait for it and load what it saved.
 """
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import asdict
 from pathlib import Path
 
@@ -41,14 +45,39 @@ def cache_key(dataset: str, config: TrainConfig, extra: dict | None = None) -> s
 def cached_file(
     path: Path, build: Callable[[Path], Path], check: Callable[[Path], object] = load_model
 ) -> Path:
-    """``path`` if it holds a usable model (``check`` loads it), else ``build(path)``."""
-    if path.is_file():
-        try:
-            check(path)
+    """``path`` if it holds a usable model (``check`` loads it), else ``build(path)``; a
+    process that finds another building it waits and takes what that one saved."""
+    if _usable(path, check, quiet=True):
+        return path
+    with locked(path):
+        if _usable(path, check, quiet=False):  # built meanwhile by the lock's holder
             return path
-        except ModelFileError as exc:
+        return build(path)
+
+
+def _usable(path: Path, check: Callable[[Path], object], quiet: bool) -> bool:
+    if not path.is_file():
+        return False
+    try:
+        check(path)
+        return True
+    except ModelFileError as exc:
+        if not quiet:
             log.warning("retraining: cached model unusable: %s", exc)
-    return build(path)
+        return False
+
+
+@contextmanager
+def locked(path: Path) -> Iterator[None]:
+    """Hold the inter-process lock of cache file ``path`` (``path.lock``, made if needed),
+    waiting while another process holds it; released when the process ends, however."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path.with_name(path.name + ".lock"), "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
 
 
 def cached_model(
