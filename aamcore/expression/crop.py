@@ -11,6 +11,7 @@ taken from (:mod:`.hog_patches`).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import cv2
@@ -206,6 +207,39 @@ def aligned_face(
     """
     M = canonical_transform(points, eye_distance, (size / 2.0, eye_row))
     crop = cv2.warpAffine(
-        grey(image), M, (size, size), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+        _grey_under(image, M, size), M, (size, size), flags=cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_REPLICATE,
     )
     return crop, transform_points(M, points)
+
+
+def _grey_under(image: np.ndarray, M: np.ndarray, size: int) -> np.ndarray:
+    """The grey levels (H, W) uint8 of ``image`` that the warp by ``M`` to a ``size`` crop
+    reads: a BGR(A) uint8 frame is converted only in the box the crop comes from (with a
+    margin), the rest of the array left unset, which the warp never reads (pixels beyond
+    the frame repeat its border, which the box then holds); any other image as
+    :func:`grey` gives it."""
+    if image.ndim != 3 or image.dtype != np.uint8 or image.shape[2] not in (3, 4):
+        return grey(image)
+    h, w = image.shape[:2]
+    inverse = cv2.invertAffineTransform(M)
+    xs, ys = (inverse[:, :2] @ _CORNERS * size + inverse[:, 2:]).tolist()
+    x0, x1 = _span(min(xs), max(xs), w)
+    y0, y1 = _span(min(ys), max(ys), h)
+    if (x1 - x0) * (y1 - y0) * 2 > h * w:
+        return grey(image)
+    out = np.empty((h, w), np.uint8)
+    code = cv2.COLOR_BGRA2GRAY if image.shape[2] == 4 else cv2.COLOR_BGR2GRAY
+    cv2.cvtColor(image[y0:y1, x0:x1], code, dst=out[y0:y1, x0:x1])
+    return out
+
+
+_CORNERS = np.array([[0.0, 0.0, 1.0, 1.0], [0.0, 1.0, 0.0, 1.0]])
+"""The corners of the unit square, by columns."""
+
+
+def _span(low: float, high: float, n: int) -> tuple[int, int]:
+    """The pixels ``start:stop`` of ``0:n`` that a bilinear read between ``low`` and
+    ``high`` touches, pixels beyond ``0:n`` replicating its ends (two pixels to spare)."""
+    return (min(max(math.floor(low) - 2, 0), n - 1),
+            min(max(math.ceil(high) + 2, 0), n - 1) + 1)

@@ -9,6 +9,8 @@ frontal shape.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import cv2
 import numpy as np
 
@@ -18,6 +20,76 @@ from aamcore.expression.spec import FeatureConfig
 _TINY = 1e-6
 HYS_CLIP = 0.2
 """Dalal and Triggs' L2-Hys clipping of the normalised patch vectors."""
+
+
+def _planes(gx: np.ndarray, gy: np.ndarray, bins: int) -> np.ndarray:
+    """The plane (:func:`integral_histogram`) of each gradient ``gx``, ``gy`` (float32
+    arrays of one shape); an intp array of that shape."""
+    # floor(theta * bins / 180) without an arctangent: the number of bin edges (0, 180)
+    # that the gradient, turned into the upper half-plane, lies at or beyond.
+    ux, uy = np.where(gy < 0, -gx, gx), np.abs(gy)
+    index = np.zeros(gx.shape, np.intp)
+    for edge in np.arange(1, bins) * (np.pi / bins):
+        index += uy * np.float32(np.cos(edge)) - ux * np.float32(np.sin(edge)) >= 0
+    index[gx == 0] = bins + 1
+    index[gy == 0] = bins
+    return index
+
+
+_SPAN = 511
+"""Central differences of uint8 pixels: the integers -255 to 255."""
+
+
+@lru_cache(maxsize=8)
+def _gradient_tables(bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """The plane (uint8) and the magnitude (float32) of every integer gradient, by
+    ``(gx + 255) * 511 + gy + 255``: what :func:`_planes` and the float32 magnitude give
+    for it, so that a uint8 crop's gradients are looked up, not worked out per pixel."""
+    values = np.arange(-255, 256, dtype=np.float32)
+    gx, gy = np.meshgrid(values, values, indexing="ij")
+    plane = _planes(gx, gy, bins).astype(np.uint8).ravel()
+    magnitude = np.sqrt(gx * gx + gy * gy).ravel()  # not cv2.magnitude: its result varies
+    # in the last bit with the array's alignment
+    plane.setflags(write=False)
+    magnitude.setflags(write=False)
+    return plane, magnitude
+
+
+def _window_integral(crop: np.ndarray, bins: int, rows: tuple[int, int], cols: tuple[int, int]
+                     ) -> np.ndarray:
+    """:func:`integral_histogram` of the crop's pixels ``rows[0]:rows[1]``,
+    ``cols[0]:cols[1]`` (the gradients are the whole crop's); (rows + 1, cols + 1, bins + 2).
+
+    Every sum is exact (float32 magnitudes, each 0 or at least 1 and below 361, add up
+    without rounding in float64 over any crop of fewer than 2^22 pixels), so a rectangle's
+    sum is the same read from any window that holds it."""
+    (y0, y1), (x0, x1) = rows, cols
+    if crop.dtype == np.uint8:
+        gx = cv2.Sobel(crop, cv2.CV_16S, 1, 0, ksize=1)[y0:y1, x0:x1]
+        gy = cv2.Sobel(crop, cv2.CV_16S, 0, 1, ksize=1)[y0:y1, x0:x1]
+        key = gx.astype(np.int32)
+        key *= _SPAN
+        key += gy
+        key += 255 * _SPAN + 255
+        plane_of, magnitude_of = _gradient_tables(bins)
+        index, magnitude = plane_of[key], magnitude_of[key]
+    else:
+        g = crop.astype(np.float32)
+        gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=1)[y0:y1, x0:x1]
+        gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=1)[y0:y1, x0:x1]
+        index, magnitude = _planes(gx, gy, bins), np.sqrt(gx * gx + gy * gy)
+    shape = index.shape
+    planes = np.zeros(index.size * (bins + 2), np.float32)  # float32: 7 times faster below
+    planes[_offsets(index.size, bins + 2) + index.ravel()] = magnitude.ravel()
+    return cv2.integral(planes.reshape(*shape, bins + 2), sdepth=cv2.CV_64F)
+
+
+@lru_cache(maxsize=16)
+def _offsets(n: int, step: int) -> np.ndarray:
+    """``arange(n) * step``, made once."""
+    out = np.arange(n, dtype=np.intp) * step
+    out.setflags(write=False)
+    return out
 
 
 def integral_histogram(crop: np.ndarray, bins: int) -> np.ndarray:
@@ -43,36 +115,27 @@ def integral_histogram(crop: np.ndarray, bins: int) -> np.ndarray:
         Planes 0 to ``bins - 1``: the bins without the horizontal and vertical gradients;
         plane ``bins``: the horizontal gradients, plane ``bins + 1`` the vertical ones.
     """
-    g = crop.astype(np.float32)
-    gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=1)
-    gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=1)
-    # floor(theta * bins / 180) without an arctangent: the number of bin edges (0, 180)
-    # that the gradient, turned into the upper half-plane, lies at or beyond.
-    ux, uy = np.where(gy < 0, -gx, gx), np.abs(gy)
-    index = np.zeros(crop.shape, np.intp)
-    for edge in np.arange(1, bins) * (np.pi / bins):
-        index += uy * np.float32(np.cos(edge)) - ux * np.float32(np.sin(edge)) >= 0
-    index[gx == 0] = bins + 1
-    index[gy == 0] = bins
-    planes = np.zeros(index.size * (bins + 2), np.float32)  # float32: 7 times faster below
-    magnitude = np.sqrt(gx * gx + gy * gy)  # not cv2.magnitude: its result varies in the
-    # last bit with the array's alignment
-    planes[index.ravel() + np.arange(index.size) * (bins + 2)] = magnitude.ravel()
-    return cv2.integral(planes.reshape(*crop.shape, bins + 2), sdepth=cv2.CV_64F)
+    return _window_integral(crop, bins, (0, crop.shape[0]), (0, crop.shape[1]))
 
 
-def _cell_sums(integral: np.ndarray, cx: np.ndarray, cy: np.ndarray, config: FeatureConfig,
-               mirrored: bool) -> np.ndarray:
-    """Cell histograms (P, cells, cells, bins + 2) of the patches centred at (cx, cy) (P,)
-    of the crop, or with ``mirrored`` of its mirror image (``cx`` in the mirror image's
-    columns)."""
-    h, w = integral.shape[0] - 1, integral.shape[1] - 1
+def _corners(cx: np.ndarray, cy: np.ndarray, config: FeatureConfig, shape: tuple[int, ...],
+             mirrored: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The integral image's rows and columns (P, cells + 1) of the cell corners of the
+    patches centred at (cx, cy) (P,) of the crop, or with ``mirrored`` of its mirror image
+    (``cx`` in the mirror image's columns; the columns come out descending)."""
+    h, w = shape[:2]
     half, cells = config.hog_half, config.hog_cells
     edges = np.arange(cells + 1) * (2 * half // cells) - half
-    ys = np.clip(cy[:, None] + edges, 0, h)  # (P, cells + 1)
+    ys = np.clip(cy[:, None] + edges, 0, h)
     xs = np.clip(cx[:, None] + edges, 0, w)
-    if mirrored:  # column c of the mirror image is column w - 1 - c of the crop
-        xs = w - xs  # descending: the sums below come out negated
+    return ys, (w - xs if mirrored else xs)  # column c of the mirror image is w - 1 - c
+
+
+def _cell_sums(integral: np.ndarray, ys: np.ndarray, xs: np.ndarray, mirrored: bool
+               ) -> np.ndarray:
+    """Cell histograms (P, cells, cells, bins + 2) of the cells with corners at rows ``ys``
+    and columns ``xs`` (P, cells + 1) of ``integral`` (descending columns with
+    ``mirrored``: the sums come out negated, and are turned back)."""
     corners = integral[ys[:, :, None], xs[:, None, :]]  # (P, cells + 1, cells + 1, bins + 2)
     sums = corners[:, 1:, 1:] - corners[:, :-1, 1:] - corners[:, 1:, :-1] + corners[:, :-1, :-1]
     return -sums if mirrored else sums
@@ -114,23 +177,37 @@ def hog_pair(crop: np.ndarray, points: np.ndarray, config: FeatureConfig
         ``P = len(config.hog_points)``; ``mirrored`` is :func:`hog_block` of the left-right
         flipped crop at the flipped, mirror-numbered landmarks.
     """
-    integral = integral_histogram(crop, config.hog_bins)
     chosen = list(config.hog_points)
     own = np.round(points[chosen]).astype(np.int64)
-    width = crop.shape[1]
     partner = points[MIRROR][chosen]
-    cx_mirror = np.round(width - 1 - partner[:, 0]).astype(np.int64)
+    cx_mirror = np.round(crop.shape[1] - 1 - partner[:, 0]).astype(np.int64)
     cy_mirror = np.round(partner[:, 1]).astype(np.int64)
-    return (_normalised(_cell_sums(integral, own[:, 0], own[:, 1], config, False), False),
-            _normalised(_cell_sums(integral, cx_mirror, cy_mirror, config, True), True))
+    ys, xs = _corners(own[:, 0], own[:, 1], config, crop.shape, False)
+    ys_m, xs_m = _corners(cx_mirror, cy_mirror, config, crop.shape, True)
+    rows, cols = _window(np.concatenate([ys, ys_m]), np.concatenate([xs, xs_m]), crop.shape)
+    integral = _window_integral(crop, config.hog_bins, rows, cols)
+    y0, x0 = rows[0], cols[0]
+    return (_normalised(_cell_sums(integral, ys - y0, xs - x0, False), False),
+            _normalised(_cell_sums(integral, ys_m - y0, xs_m - x0, True), True))
+
+
+def _window(ys: np.ndarray, xs: np.ndarray, shape: tuple[int, ...]
+            ) -> tuple[tuple[int, int], tuple[int, int]]:
+    """The crop's rows and columns (start, stop) whose integral holds the corners at rows
+    ``ys`` and columns ``xs``: at least one pixel."""
+    y0, y1, x0, x1 = int(ys.min()), int(ys.max()), int(xs.min()), int(xs.max())
+    y0, x0 = min(y0, shape[0] - 1), min(x0, shape[1] - 1)
+    return (y0, max(y1, y0 + 1)), (x0, max(x1, x0 + 1))
 
 
 def hog_block(crop: np.ndarray, points: np.ndarray, config: FeatureConfig) -> np.ndarray:
     """HOG of a patch around each of ``config.hog_points`` (:func:`hog_pair`'s first);
     (P * cells^2 * bins,)."""
-    integral = integral_histogram(crop, config.hog_bins)
     centres = np.round(points[list(config.hog_points)]).astype(np.int64)
-    return _normalised(_cell_sums(integral, centres[:, 0], centres[:, 1], config, False), False)
+    ys, xs = _corners(centres[:, 0], centres[:, 1], config, crop.shape, False)
+    rows, cols = _window(ys, xs, crop.shape)
+    integral = _window_integral(crop, config.hog_bins, rows, cols)
+    return _normalised(_cell_sums(integral, ys - rows[0], xs - cols[0], False), False)
 
 
 def patch_symmetry(own: np.ndarray, mirrored: np.ndarray, n_patches: int) -> float:
