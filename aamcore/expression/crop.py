@@ -169,8 +169,13 @@ def approximate_yaw_deg(points: np.ndarray) -> float:
     offset 0. Accurate to a few degrees on a mean face, rougher on real faces
     (the nose tip's own position differs between people).
     """
-    offset = float(canonical_shape(points)[NOSE_TIP, 0])
-    return float(np.degrees(np.arctan2(offset, YAW_NOSE_GAIN)))
+    return yaw_of_canonical(canonical_shape(points))
+
+
+def yaw_of_canonical(shape: np.ndarray) -> float:
+    """:func:`approximate_yaw_deg` of landmarks whose :func:`canonical_shape` (68, 2) is
+    ``shape``."""
+    return float(np.degrees(np.arctan2(float(shape[NOSE_TIP, 0]), YAW_NOSE_GAIN)))
 
 
 def grey(image: np.ndarray) -> np.ndarray:
