@@ -111,7 +111,9 @@ def check_landmarks(points: np.ndarray) -> None:
 
 def eye_centres(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Centres (2,) of the left-in-image and right-in-image eye, from (68, 2) landmarks."""
-    return points[list(LEFT_EYE)].mean(axis=0), points[list(RIGHT_EYE)].mean(axis=0)
+    # np.mean's arithmetic (a sum, then a division) on the eyes' rows, without its overhead
+    return (np.add.reduce(points[LEFT_EYE[0]:LEFT_EYE[-1] + 1], axis=0) / len(LEFT_EYE),
+            np.add.reduce(points[RIGHT_EYE[0]:RIGHT_EYE[-1] + 1], axis=0) / len(RIGHT_EYE))
 
 
 def canonical_transform(

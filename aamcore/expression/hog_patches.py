@@ -41,18 +41,15 @@ _SPAN = 511
 
 
 @lru_cache(maxsize=8)
-def _gradient_tables(bins: int) -> tuple[np.ndarray, np.ndarray]:
-    """The plane (uint8) and the magnitude (float32) of every integer gradient, by
-    ``(gx + 255) * 511 + gy + 255``: what :func:`_planes` and the float32 magnitude give
-    for it, so that a uint8 crop's gradients are looked up, not worked out per pixel."""
+def _plane_table(bins: int) -> np.ndarray:
+    """The plane (uint8) of every integer gradient, by ``(gx + 255) * 511 + gy + 255``:
+    what :func:`_planes` gives for it, so that a uint8 crop's gradients are looked up, not
+    binned per pixel."""
     values = np.arange(-255, 256, dtype=np.float32)
     gx, gy = np.meshgrid(values, values, indexing="ij")
     plane = _planes(gx, gy, bins).astype(np.uint8).ravel()
-    magnitude = np.sqrt(gx * gx + gy * gy).ravel()  # not cv2.magnitude: its result varies
-    # in the last bit with the array's alignment
     plane.setflags(write=False)
-    magnitude.setflags(write=False)
-    return plane, magnitude
+    return plane
 
 
 def _window_integral(crop: np.ndarray, bins: int, rows: tuple[int, int], cols: tuple[int, int]
@@ -65,19 +62,21 @@ def _window_integral(crop: np.ndarray, bins: int, rows: tuple[int, int], cols: t
     sum is the same read from any window that holds it."""
     (y0, y1), (x0, x1) = rows, cols
     if crop.dtype == np.uint8:
-        gx = cv2.Sobel(crop, cv2.CV_16S, 1, 0, ksize=1)[y0:y1, x0:x1]
-        gy = cv2.Sobel(crop, cv2.CV_16S, 0, 1, ksize=1)[y0:y1, x0:x1]
-        key = gx.astype(np.int32)
+        dx = cv2.Sobel(crop, cv2.CV_16S, 1, 0, ksize=1)[y0:y1, x0:x1]
+        dy = cv2.Sobel(crop, cv2.CV_16S, 0, 1, ksize=1)[y0:y1, x0:x1]
+        key = dx.astype(np.int32)
         key *= _SPAN
-        key += gy
+        key += dy
         key += 255 * _SPAN + 255
-        plane_of, magnitude_of = _gradient_tables(bins)
-        index, magnitude = plane_of[key], magnitude_of[key]
+        index = np.take(_plane_table(bins), key)
+        gx, gy = dx.astype(np.float32), dy.astype(np.float32)
     else:
         g = crop.astype(np.float32)
         gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=1)[y0:y1, x0:x1]
         gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=1)[y0:y1, x0:x1]
-        index, magnitude = _planes(gx, gy, bins), np.sqrt(gx * gx + gy * gy)
+        index = _planes(gx, gy, bins)
+    magnitude = np.sqrt(gx * gx + gy * gy)  # not cv2.magnitude: its result varies in the
+    # last bit with the array's alignment
     shape = index.shape
     planes = np.zeros(index.size * (bins + 2), np.float32)  # float32: 7 times faster below
     planes[_offsets(index.size, bins + 2) + index.ravel()] = magnitude.ravel()
@@ -126,8 +125,8 @@ def _corners(cx: np.ndarray, cy: np.ndarray, config: FeatureConfig, shape: tuple
     h, w = shape[:2]
     half, cells = config.hog_half, config.hog_cells
     edges = np.arange(cells + 1) * (2 * half // cells) - half
-    ys = np.clip(cy[:, None] + edges, 0, h)
-    xs = np.clip(cx[:, None] + edges, 0, w)
+    ys = np.minimum(np.maximum(cy[:, None] + edges, 0), h)
+    xs = np.minimum(np.maximum(cx[:, None] + edges, 0), w)
     return ys, (w - xs if mirrored else xs)  # column c of the mirror image is w - 1 - c
 
 
@@ -144,13 +143,18 @@ def _cell_sums(integral: np.ndarray, ys: np.ndarray, xs: np.ndarray, mirrored: b
 def _normalised(sums: np.ndarray, mirrored: bool) -> np.ndarray:
     """L2-Hys vectors (P * cells^2 * bins,) of cell histograms (P, cells, cells, bins + 2)."""
     bins = sums.shape[-1] - 2
-    order = np.arange(bins)[::-1] if mirrored else np.arange(bins)
-    v = sums[..., order].copy()
+    v = (sums[..., bins - 1::-1] if mirrored else sums[..., :bins]).copy()
     v[..., 0] += sums[..., bins]
     v[..., bins // 2] += sums[..., bins + 1]
     v = np.maximum(v.reshape(len(sums), -1), 0.0)  # round-off can dip below 0
-    v = np.minimum(v / (np.linalg.norm(v, axis=1, keepdims=True) + _TINY), HYS_CLIP)
-    return (v / (np.linalg.norm(v, axis=1, keepdims=True) + _TINY)).ravel()
+    v = np.minimum(v / (_norms(v) + _TINY), HYS_CLIP)
+    return (v / (_norms(v) + _TINY)).ravel()
+
+
+def _norms(v: np.ndarray) -> np.ndarray:
+    """The rows' L2 norms (n, 1) of ``v`` (n, d): :func:`numpy.linalg.norm`'s arithmetic,
+    without its overhead."""
+    return np.sqrt(np.add.reduce(v * v, axis=1, keepdims=True))
 
 
 def hog_pair(crop: np.ndarray, points: np.ndarray, config: FeatureConfig
