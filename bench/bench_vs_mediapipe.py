@@ -1,7 +1,7 @@
 """FaceTracker against MediaPipe's Face Mesh, per frame, in one process, and FaceTracker's time
 stage by stage.
 
-Run: ``python -m bench vs-mediapipe [--rounds 3] [--model FILE]``; MediaPipe is the peer,
+Run: ``python -m bench vs-mediapipe [--rounds 5] [--model FILE]``; MediaPipe is the peer,
 installed with the ``[peers]`` extra: ``pip install -e '.[peers]' && pip install --no-deps
 mediapipe==0.10.14`` (README, Install); without it the bench says so and exits 2.
 
@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -126,14 +127,16 @@ def breakdown(run: dict[str, Any]) -> dict[str, float]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = options.parser(__doc__, __name__, model=True)
-    parser.add_argument("--rounds", type=int, default=3,
+    parser.add_argument("--rounds", type=int, default=5,
                         help="rounds of MediaPipe, FaceTracker and FaceTracker by stage in "
-                             "turn; each figure is the best round's median (default 3)")
+                             "turn; each figure is the best round's median (default 5)")
     parser.add_argument("--frames", type=int, default=0,
                         help="the clip's first N frames only (0: all)")
     args = options.parse(parser, argv)
     if args.rounds < 1:
         parser.error("--rounds must be at least 1")
+    # protobuf's deprecation note at MediaPipe's every first result
+    warnings.filterwarnings("ignore", "SymbolDatabase.GetPrototype", UserWarning)
     try:
         import mediapipe
     except ImportError as exc:
