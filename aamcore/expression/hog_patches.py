@@ -117,38 +117,35 @@ def integral_histogram(crop: np.ndarray, bins: int) -> np.ndarray:
     return _window_integral(crop, bins, (0, crop.shape[0]), (0, crop.shape[1]))
 
 
-def _corners(cx: np.ndarray, cy: np.ndarray, config: FeatureConfig, shape: tuple[int, ...],
-             mirrored: bool) -> tuple[np.ndarray, np.ndarray]:
+def _corners(cx: np.ndarray, cy: np.ndarray, config: FeatureConfig, shape: tuple[int, ...]
+             ) -> tuple[np.ndarray, np.ndarray]:
     """The integral image's rows and columns (P, cells + 1) of the cell corners of the
-    patches centred at (cx, cy) (P,) of the crop, or with ``mirrored`` of its mirror image
-    (``cx`` in the mirror image's columns; the columns come out descending)."""
+    patches centred at (cx, cy) (P,) of an image of ``shape``, clipped to it."""
     h, w = shape[:2]
     half, cells = config.hog_half, config.hog_cells
     edges = np.arange(cells + 1) * (2 * half // cells) - half
     ys = np.minimum(np.maximum(cy[:, None] + edges, 0), h)
     xs = np.minimum(np.maximum(cx[:, None] + edges, 0), w)
-    return ys, (w - xs if mirrored else xs)  # column c of the mirror image is w - 1 - c
+    return ys, xs
 
 
-def _cell_sums(integral: np.ndarray, ys: np.ndarray, xs: np.ndarray, mirrored: bool
-               ) -> np.ndarray:
+def _cell_sums(integral: np.ndarray, ys: np.ndarray, xs: np.ndarray) -> np.ndarray:
     """Cell histograms (P, cells, cells, bins + 2) of the cells with corners at rows ``ys``
-    and columns ``xs`` (P, cells + 1) of ``integral`` (descending columns with
-    ``mirrored``: the sums come out negated, and are turned back)."""
+    and columns ``xs`` (P, cells + 1) of ``integral`` (negated where the columns descend)."""
     corners = integral[ys[:, :, None], xs[:, None, :]]  # (P, cells + 1, cells + 1, bins + 2)
-    sums = corners[:, 1:, 1:] - corners[:, :-1, 1:] - corners[:, 1:, :-1] + corners[:, :-1, :-1]
-    return -sums if mirrored else sums
+    return corners[:, 1:, 1:] - corners[:, :-1, 1:] - corners[:, 1:, :-1] + corners[:, :-1, :-1]
 
 
-def _normalised(sums: np.ndarray, mirrored: bool) -> np.ndarray:
-    """L2-Hys vectors (P * cells^2 * bins,) of cell histograms (P, cells, cells, bins + 2)."""
-    bins = sums.shape[-1] - 2
-    v = (sums[..., bins - 1::-1] if mirrored else sums[..., :bins]).copy()
+def _hys(v: np.ndarray, sums: np.ndarray) -> np.ndarray:
+    """L2-Hys rows (P, cells^2 * bins) of the cell histograms ``v`` (P, cells, cells, bins)
+    in their bins' order (a copy, changed), the horizontal and vertical planes of ``sums``
+    (P, cells, cells, bins + 2) added to their bins."""
+    bins = v.shape[-1]
     v[..., 0] += sums[..., bins]
     v[..., bins // 2] += sums[..., bins + 1]
-    v = np.maximum(v.reshape(len(sums), -1), 0.0)  # round-off can dip below 0
+    v = np.maximum(v.reshape(len(v), -1), 0.0)  # round-off can dip below 0
     v = np.minimum(v / (_norms(v) + _TINY), HYS_CLIP)
-    return (v / (_norms(v) + _TINY)).ravel()
+    return v / (_norms(v) + _TINY)
 
 
 def _norms(v: np.ndarray) -> np.ndarray:
@@ -182,17 +179,24 @@ def hog_pair(crop: np.ndarray, points: np.ndarray, config: FeatureConfig
         flipped crop at the flipped, mirror-numbered landmarks.
     """
     chosen = list(config.hog_points)
+    n, width = len(chosen), crop.shape[1]
     own = np.round(points[chosen]).astype(np.int64)
     partner = points[MIRROR][chosen]
-    cx_mirror = np.round(crop.shape[1] - 1 - partner[:, 0]).astype(np.int64)
-    cy_mirror = np.round(partner[:, 1]).astype(np.int64)
-    ys, xs = _corners(own[:, 0], own[:, 1], config, crop.shape, False)
-    ys_m, xs_m = _corners(cx_mirror, cy_mirror, config, crop.shape, True)
-    rows, cols = _window(np.concatenate([ys, ys_m]), np.concatenate([xs, xs_m]), crop.shape)
+    # the own patches' centres, then the mirror patches' (in the mirror image's columns)
+    cx = np.concatenate([own[:, 0], np.round(width - 1 - partner[:, 0]).astype(np.int64)])
+    cy = np.concatenate([own[:, 1], np.round(partner[:, 1]).astype(np.int64)])
+    ys, xs = _corners(cx, cy, config, crop.shape)
+    # column c of the mirror image is column w - 1 - c of the crop: its integral's columns
+    # w - x, descending, so that the mirror patches' sums come out negated
+    xs[n:] = width - xs[n:]
+    rows, cols = _window(ys, xs, crop.shape)
     integral = _window_integral(crop, config.hog_bins, rows, cols)
-    y0, x0 = rows[0], cols[0]
-    return (_normalised(_cell_sums(integral, ys - y0, xs - x0, False), False),
-            _normalised(_cell_sums(integral, ys_m - y0, xs_m - x0, True), True))
+    sums = _cell_sums(integral, ys - rows[0], xs - cols[0])
+    np.negative(sums[n:], out=sums[n:])
+    bins = config.hog_bins
+    v = np.concatenate([sums[:n, ..., :bins], sums[n:, ..., bins - 1::-1]])
+    v = _hys(v, sums)
+    return v[:n].ravel(), v[n:].ravel()
 
 
 def _window(ys: np.ndarray, xs: np.ndarray, shape: tuple[int, ...]
@@ -208,10 +212,11 @@ def hog_block(crop: np.ndarray, points: np.ndarray, config: FeatureConfig) -> np
     """HOG of a patch around each of ``config.hog_points`` (:func:`hog_pair`'s first);
     (P * cells^2 * bins,)."""
     centres = np.round(points[list(config.hog_points)]).astype(np.int64)
-    ys, xs = _corners(centres[:, 0], centres[:, 1], config, crop.shape, False)
+    ys, xs = _corners(centres[:, 0], centres[:, 1], config, crop.shape)
     rows, cols = _window(ys, xs, crop.shape)
     integral = _window_integral(crop, config.hog_bins, rows, cols)
-    return _normalised(_cell_sums(integral, ys - rows[0], xs - cols[0], False), False)
+    sums = _cell_sums(integral, ys - rows[0], xs - cols[0])
+    return _hys(sums[..., :config.hog_bins].copy(), sums).ravel()
 
 
 def patch_symmetry(own: np.ndarray, mirrored: np.ndarray, n_patches: int) -> float:
