@@ -23,8 +23,10 @@ SCHEME = "ibug68"
 """The landmark scheme's name, as the fitter's ``Fit`` messages carry it."""
 LEFT_EYE = tuple(range(36, 42))
 RIGHT_EYE = tuple(range(42, 48))
-INNER_POINTS = tuple(range(17, 68))
-"""Brows, nose, eyes and mouth: the landmarks whose neighbourhoods carry the expression."""
+INNER_SLICE = slice(17, 68)
+INNER_POINTS = tuple(range(INNER_SLICE.start, INNER_SLICE.stop))
+"""Brows, nose, eyes and mouth: the landmarks whose neighbourhoods carry the expression
+(:data:`INNER_SLICE` as a slice)."""
 NOSE_TIP = 30
 YAW_NOSE_GAIN = 0.57
 """Nose-tip offset from the eye midpoint, in eye distances, per unit of ``tan(yaw)``: on the
@@ -143,13 +145,15 @@ def canonical_transform(
     left, right = eye_centres(points)
     d = right - left
     dist = float(np.hypot(d[0], d[1]))
-    if not np.isfinite(dist) or dist < _TINY:
+    if not math.isfinite(dist) or dist < _TINY:
         raise FaceFeatureError("the eye centres coincide or are not finite")
     s = eye_distance / dist
     cos, sin = d / dist
-    A = s * np.array([[cos, sin], [-sin, cos]])
-    t = np.asarray(centre, np.float64) - A @ ((left + right) / 2.0)
-    return np.hstack([A, t[:, None]])
+    M = np.empty((2, 3))
+    A = M[:, :2]
+    A[...] = s * np.array([[cos, sin], [-sin, cos]])
+    M[:, 2] = np.asarray(centre, np.float64) - A @ ((left + right) / 2.0)
+    return M
 
 
 def transform_points(M: np.ndarray, points: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from aamcore.expression.crop import (
-    INNER_POINTS,
+    INNER_SLICE,
     FaceFeatureError,
     FaceObservation,
     canonical_shape,
@@ -42,7 +42,9 @@ def shape_deviation(points: np.ndarray, template: np.ndarray) -> float:
 
 def deviation_of_canonical(shape: np.ndarray, template: np.ndarray) -> float:
     """:func:`shape_deviation` of landmarks whose canonical shape (68, 2) is ``shape``."""
-    return float(np.sqrt(np.mean(np.sum((shape - template) ** 2, axis=1))))
+    # np.sum and np.mean's arithmetic, without their wrappers
+    squared = np.add.reduce((shape - template) ** 2, axis=1)
+    return float(np.sqrt(np.add.reduce(squared) / len(squared)))
 
 
 def _no_face(observation: FaceObservation) -> str:
@@ -121,7 +123,7 @@ def landmark_gate(
         return placed, None
     flags = observation.occluded
     if flags is not None:
-        covered = float(np.mean(flags[list(INNER_POINTS)]))
+        covered = float(np.mean(flags[INNER_SLICE]))
         if covered > limits.max_covered:
             return (f"face covered: {100 * covered:.0f} % of the inner landmarks occluded "
                     f"(at most {100 * limits.max_covered:g} %)"), None
