@@ -14,9 +14,10 @@ converted outside its timing), made afresh each round; ``FaceTracker()`` with it
 (:meth:`~aamcore.tracker.FaceTracker.reset`); and ``FaceTracker`` again with each of its
 stages timed (the fit, pose and expression operators called through a timer), which gives
 the pose and expression per face and the glue: ``process_faces`` less its stages (the frame
-reference, the results). Each figure is the median wall time of a frame in a round, the best
-round's; the CPU time of the whole process per frame (MediaPipe's graph runs calculators in
-threads of its own) and the load average are printed beside it. The ratio that counts is the
+reference, the results). OpenCV runs in the calling thread (``cv2.setNumThreads(1)``);
+MediaPipe's calculator graph runs in threads of its own, the caller waiting. Each figure is
+the median wall time of a frame in a round, the best round's; the CPU time of the whole
+process per frame and the load average are printed beside it. The ratio that counts is the
 one of the same run.
 
 Targets (issue 47): FaceTracker <= 1.2x MediaPipe in the same run and <= 2.5 ms a frame;
@@ -149,6 +150,7 @@ def main(argv: list[str] | None = None) -> int:
     from aamcore.io.video import video_facts, video_frames
     from aamcore.tracker import FaceTracker
 
+    cv2.setNumThreads(1)  # one thread: OpenCV's own pool would lend FaceTracker a second core
     path = data_root() / CLIP
     frames = video_frames(path)
     if args.frames:
