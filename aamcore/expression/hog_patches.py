@@ -132,7 +132,10 @@ def _corners(cx: np.ndarray, cy: np.ndarray, config: FeatureConfig, shape: tuple
 def _cell_sums(integral: np.ndarray, ys: np.ndarray, xs: np.ndarray) -> np.ndarray:
     """Cell histograms (P, cells, cells, bins + 2) of the cells with corners at rows ``ys``
     and columns ``xs`` (P, cells + 1) of ``integral`` (negated where the columns descend)."""
-    corners = integral[ys[:, :, None], xs[:, None, :]]  # (P, cells + 1, cells + 1, bins + 2)
+    planes = integral.shape[-1]
+    flat = ys[:, :, None] * integral.shape[1] + xs[:, None, :]
+    # integral[ys[:, :, None], xs[:, None, :]], (P, cells + 1, cells + 1, bins + 2), by one take
+    corners = np.take(integral.reshape(-1, planes), flat, axis=0)
     return corners[:, 1:, 1:] - corners[:, :-1, 1:] - corners[:, 1:, :-1] + corners[:, :-1, :-1]
 
 
