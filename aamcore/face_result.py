@@ -5,7 +5,7 @@ messages (``aamtrack export``)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -125,7 +125,8 @@ class PoseParts:
 def joined_result(index: int, t: float, points: np.ndarray, success: bool, confidence: float,
                   similarity: Similarity | None, reason: str, occluded: np.ndarray | None,
                   pose: PoseParts | None, label: str | None, class_names: tuple[str, ...],
-                  scores: np.ndarray | None, expression_reason: str) -> FaceResult:
+                  scores: np.ndarray | None, expression_reason: str, face_id: int = -1
+                  ) -> FaceResult:
     """The one join of a frame's fit, pose and expression into a :class:`FaceResult`, for the
     library (:func:`result_of`) and for a recording's messages (``aamtrack export``).
 
@@ -134,12 +135,12 @@ def joined_result(index: int, t: float, points: np.ndarray, success: bool, confi
     """
     if len(points) == 0:
         return FaceResult(index, t, False, 0.0, np.zeros((0, 2)), reason=reason or NO_FACE,
-                          expression_reason=expression_reason)
+                          expression_reason=expression_reason, face_id=face_id)
     named = ({} if label is None or scores is None
              else dict(zip(class_names, map(float, scores), strict=True)))
     common: dict[str, Any] = dict(similarity=similarity, expression=label,
                                   expression_scores=named, expression_reason=expression_reason,
-                                  occluded=occluded)
+                                  occluded=occluded, face_id=face_id)
     if pose is None:
         return FaceResult(index, t, success, confidence, points, reason=reason, **common)
     return FaceResult(index, t, success, confidence, points, rotation=pose.rotation,
@@ -167,7 +168,6 @@ def result_of(frame: FrameRef, face: FaceFit, pose: FacePose | None,
         expression_reason = expression.reason
     confidence = 0.0 if fit is None else fit.confidence
     similarity = None if fit is None else fit.similarity
-    joined = joined_result(frame.index, frame.t, face.points, not face.failed, confidence,
-                           similarity, face.reason or why, occluded, parts, label, names,
-                           scores, expression_reason)
-    return replace(joined, face_id=face.face_id)
+    return joined_result(frame.index, frame.t, face.points, not face.failed, confidence,
+                         similarity, face.reason or why, occluded, parts, label, names,
+                         scores, expression_reason, face.face_id)

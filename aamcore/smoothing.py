@@ -14,8 +14,9 @@ goes backwards or jumps (a cut, a new stream).
 
 from __future__ import annotations
 
+import copy
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any, TypeVar
 
 import numpy as np
@@ -132,4 +133,7 @@ class LandmarkSmoother:
         if fit is None:
             self.reset()
             return None
-        return replace(fit, points=self.update(fit.points, t, fit.ok))
+        smoothed = copy.copy(fit)  # dataclasses.replace, without its overhead (no
+        # __post_init__ to run again: only the points change)
+        object.__setattr__(smoothed, "points", self.update(fit.points, t, fit.ok))
+        return smoothed

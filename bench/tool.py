@@ -25,7 +25,7 @@ HERE = Path(__file__).resolve().parent
 
 BENCHMARKS = (
     "models", "fit-imm", "fit-lfpw", "fit-speed", "occlusion", "ar-cover", "thesis-profile",
-    "vs-dlib",
+    "vs-dlib", "vs-mediapipe",
     "detector-tuning", "detection", "facemark", "failure-tests", "smoothing", "tracking",
     "multiface", "no-face", "posit", "pose-e2e", "pose-speed", "pose-yaw", "expression",
     "prepare", "first-command", "first-minutes", "gl-warp", "stack", "stack-vs-library",

@@ -24,7 +24,7 @@ from aamcore.expression.crop import (
     check_landmarks,
 )
 from aamcore.expression.hog_patches import hog_block, hog_pair, patch_symmetry
-from aamcore.expression.quality import landmark_problem, symmetry_problem
+from aamcore.expression.quality import landmark_gate, symmetry_problem
 from aamcore.expression.spec import FeatureConfig, QualityLimits
 
 Blocks = dict[str, np.ndarray]
@@ -64,12 +64,14 @@ def analyse_face(
         With ``check`` False, for landmarks of the wrong shape, non-finite or
         with coincident eyes.
     """
+    shape = None
     if check:
-        problem = landmark_problem(observation, limits, template)
+        problem, shape = landmark_gate(observation, limits, template)
         if problem:
             return problem, None
     points = observation.landmarks
-    check_landmarks(points)
+    if shape is None:
+        check_landmarks(points)
     hog = None
     if check or "hog" in config.blocks:
         problem, hog = _hog(observation.image, points, config, limits if check else None)
@@ -81,7 +83,7 @@ def analyse_face(
             assert hog is not None
             blocks[name] = hog
         elif name == "shape":
-            blocks[name] = canonical_shape(points).ravel()
+            blocks[name] = (canonical_shape(points) if shape is None else shape).ravel()
         else:
             blocks[name] = np.asarray(observation.appearance, np.float64).copy()
     return "", blocks

@@ -11,6 +11,7 @@ taken from (:mod:`.hog_patches`).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import cv2
@@ -22,8 +23,10 @@ SCHEME = "ibug68"
 """The landmark scheme's name, as the fitter's ``Fit`` messages carry it."""
 LEFT_EYE = tuple(range(36, 42))
 RIGHT_EYE = tuple(range(42, 48))
-INNER_POINTS = tuple(range(17, 68))
-"""Brows, nose, eyes and mouth: the landmarks whose neighbourhoods carry the expression."""
+INNER_SLICE = slice(17, 68)
+INNER_POINTS = tuple(range(INNER_SLICE.start, INNER_SLICE.stop))
+"""Brows, nose, eyes and mouth: the landmarks whose neighbourhoods carry the expression
+(:data:`INNER_SLICE` as a slice)."""
 NOSE_TIP = 30
 YAW_NOSE_GAIN = 0.57
 """Nose-tip offset from the eye midpoint, in eye distances, per unit of ``tan(yaw)``: on the
@@ -110,7 +113,9 @@ def check_landmarks(points: np.ndarray) -> None:
 
 def eye_centres(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Centres (2,) of the left-in-image and right-in-image eye, from (68, 2) landmarks."""
-    return points[list(LEFT_EYE)].mean(axis=0), points[list(RIGHT_EYE)].mean(axis=0)
+    # np.mean's arithmetic (a sum, then a division) on the eyes' rows, without its overhead
+    return (np.add.reduce(points[LEFT_EYE[0]:LEFT_EYE[-1] + 1], axis=0) / len(LEFT_EYE),
+            np.add.reduce(points[RIGHT_EYE[0]:RIGHT_EYE[-1] + 1], axis=0) / len(RIGHT_EYE))
 
 
 def canonical_transform(
@@ -140,13 +145,15 @@ def canonical_transform(
     left, right = eye_centres(points)
     d = right - left
     dist = float(np.hypot(d[0], d[1]))
-    if not np.isfinite(dist) or dist < _TINY:
+    if not math.isfinite(dist) or dist < _TINY:
         raise FaceFeatureError("the eye centres coincide or are not finite")
     s = eye_distance / dist
     cos, sin = d / dist
-    A = s * np.array([[cos, sin], [-sin, cos]])
-    t = np.asarray(centre, np.float64) - A @ ((left + right) / 2.0)
-    return np.hstack([A, t[:, None]])
+    M = np.empty((2, 3))
+    A = M[:, :2]
+    A[...] = s * np.array([[cos, sin], [-sin, cos]])
+    M[:, 2] = np.asarray(centre, np.float64) - A @ ((left + right) / 2.0)
+    return M
 
 
 def transform_points(M: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -168,8 +175,13 @@ def approximate_yaw_deg(points: np.ndarray) -> float:
     offset 0. Accurate to a few degrees on a mean face, rougher on real faces
     (the nose tip's own position differs between people).
     """
-    offset = float(canonical_shape(points)[NOSE_TIP, 0])
-    return float(np.degrees(np.arctan2(offset, YAW_NOSE_GAIN)))
+    return yaw_of_canonical(canonical_shape(points))
+
+
+def yaw_of_canonical(shape: np.ndarray) -> float:
+    """:func:`approximate_yaw_deg` of landmarks whose :func:`canonical_shape` (68, 2) is
+    ``shape``."""
+    return float(np.degrees(np.arctan2(float(shape[NOSE_TIP, 0]), YAW_NOSE_GAIN)))
 
 
 def grey(image: np.ndarray) -> np.ndarray:
@@ -206,6 +218,39 @@ def aligned_face(
     """
     M = canonical_transform(points, eye_distance, (size / 2.0, eye_row))
     crop = cv2.warpAffine(
-        grey(image), M, (size, size), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+        _grey_under(image, M, size), M, (size, size), flags=cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_REPLICATE,
     )
     return crop, transform_points(M, points)
+
+
+def _grey_under(image: np.ndarray, M: np.ndarray, size: int) -> np.ndarray:
+    """The grey levels (H, W) uint8 of ``image`` that the warp by ``M`` to a ``size`` crop
+    reads: a BGR(A) uint8 frame is converted only in the box the crop comes from (with a
+    margin), the rest of the array left unset, which the warp never reads (pixels beyond
+    the frame repeat its border, which the box then holds); any other image as
+    :func:`grey` gives it."""
+    if image.ndim != 3 or image.dtype != np.uint8 or image.shape[2] not in (3, 4):
+        return grey(image)
+    h, w = image.shape[:2]
+    inverse = cv2.invertAffineTransform(M)
+    xs, ys = (inverse[:, :2] @ _CORNERS * size + inverse[:, 2:]).tolist()
+    x0, x1 = _span(min(xs), max(xs), w)
+    y0, y1 = _span(min(ys), max(ys), h)
+    if (x1 - x0) * (y1 - y0) * 2 > h * w:
+        return grey(image)
+    out = np.empty((h, w), np.uint8)
+    code = cv2.COLOR_BGRA2GRAY if image.shape[2] == 4 else cv2.COLOR_BGR2GRAY
+    cv2.cvtColor(image[y0:y1, x0:x1], code, dst=out[y0:y1, x0:x1])
+    return out
+
+
+_CORNERS = np.array([[0.0, 0.0, 1.0, 1.0], [0.0, 1.0, 0.0, 1.0]])
+"""The corners of the unit square, by columns."""
+
+
+def _span(low: float, high: float, n: int) -> tuple[int, int]:
+    """The pixels ``start:stop`` of ``0:n`` that a bilinear read between ``low`` and
+    ``high`` touches, pixels beyond ``0:n`` replicating its ends (two pixels to spare)."""
+    return (min(max(math.floor(low) - 2, 0), n - 1),
+            min(max(math.ceil(high) + 2, 0), n - 1) + 1)

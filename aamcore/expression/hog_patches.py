@@ -9,6 +9,8 @@ frontal shape.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import cv2
 import numpy as np
 
@@ -18,6 +20,75 @@ from aamcore.expression.spec import FeatureConfig
 _TINY = 1e-6
 HYS_CLIP = 0.2
 """Dalal and Triggs' L2-Hys clipping of the normalised patch vectors."""
+
+
+def _planes(gx: np.ndarray, gy: np.ndarray, bins: int) -> np.ndarray:
+    """The plane (:func:`integral_histogram`) of each gradient ``gx``, ``gy`` (float32
+    arrays of one shape); an intp array of that shape."""
+    # floor(theta * bins / 180) without an arctangent: the number of bin edges (0, 180)
+    # that the gradient, turned into the upper half-plane, lies at or beyond.
+    ux, uy = np.where(gy < 0, -gx, gx), np.abs(gy)
+    index = np.zeros(gx.shape, np.intp)
+    for edge in np.arange(1, bins) * (np.pi / bins):
+        index += uy * np.float32(np.cos(edge)) - ux * np.float32(np.sin(edge)) >= 0
+    index[gx == 0] = bins + 1
+    index[gy == 0] = bins
+    return index
+
+
+_SPAN = 511
+"""Central differences of uint8 pixels: the integers -255 to 255."""
+
+
+@lru_cache(maxsize=8)
+def _plane_table(bins: int) -> np.ndarray:
+    """The plane (uint8) of every integer gradient, by ``(gx + 255) * 511 + gy + 255``:
+    what :func:`_planes` gives for it, so that a uint8 crop's gradients are looked up, not
+    binned per pixel."""
+    values = np.arange(-255, 256, dtype=np.float32)
+    gx, gy = np.meshgrid(values, values, indexing="ij")
+    plane = _planes(gx, gy, bins).astype(np.uint8).ravel()
+    plane.setflags(write=False)
+    return plane
+
+
+def _window_integral(crop: np.ndarray, bins: int, rows: tuple[int, int], cols: tuple[int, int]
+                     ) -> np.ndarray:
+    """:func:`integral_histogram` of the crop's pixels ``rows[0]:rows[1]``,
+    ``cols[0]:cols[1]`` (the gradients are the whole crop's); (rows + 1, cols + 1, bins + 2).
+
+    Every sum is exact (float32 magnitudes, each 0 or at least 1 and below 361, add up
+    without rounding in float64 over any crop of fewer than 2^22 pixels), so a rectangle's
+    sum is the same read from any window that holds it."""
+    (y0, y1), (x0, x1) = rows, cols
+    if crop.dtype == np.uint8:
+        dx = cv2.Sobel(crop, cv2.CV_16S, 1, 0, ksize=1)[y0:y1, x0:x1]
+        dy = cv2.Sobel(crop, cv2.CV_16S, 0, 1, ksize=1)[y0:y1, x0:x1]
+        key = dx.astype(np.int32)
+        key *= _SPAN
+        key += dy
+        key += 255 * _SPAN + 255
+        index = np.take(_plane_table(bins), key)
+        gx, gy = dx.astype(np.float32), dy.astype(np.float32)
+    else:
+        g = crop.astype(np.float32)
+        gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=1)[y0:y1, x0:x1]
+        gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=1)[y0:y1, x0:x1]
+        index = _planes(gx, gy, bins)
+    magnitude = np.sqrt(gx * gx + gy * gy)  # not cv2.magnitude: its result varies in the
+    # last bit with the array's alignment
+    shape = index.shape
+    planes = np.zeros(index.size * (bins + 2), np.float32)  # float32: 7 times faster below
+    planes[_offsets(index.size, bins + 2) + index.ravel()] = magnitude.ravel()
+    return cv2.integral(planes.reshape(*shape, bins + 2), sdepth=cv2.CV_64F)
+
+
+@lru_cache(maxsize=16)
+def _offsets(n: int, step: int) -> np.ndarray:
+    """``arange(n) * step``, made once."""
+    out = np.arange(n, dtype=np.intp) * step
+    out.setflags(write=False)
+    return out
 
 
 def integral_histogram(crop: np.ndarray, bins: int) -> np.ndarray:
@@ -43,51 +114,47 @@ def integral_histogram(crop: np.ndarray, bins: int) -> np.ndarray:
         Planes 0 to ``bins - 1``: the bins without the horizontal and vertical gradients;
         plane ``bins``: the horizontal gradients, plane ``bins + 1`` the vertical ones.
     """
-    g = crop.astype(np.float32)
-    gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=1)
-    gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=1)
-    # floor(theta * bins / 180) without an arctangent: the number of bin edges (0, 180)
-    # that the gradient, turned into the upper half-plane, lies at or beyond.
-    ux, uy = np.where(gy < 0, -gx, gx), np.abs(gy)
-    index = np.zeros(crop.shape, np.intp)
-    for edge in np.arange(1, bins) * (np.pi / bins):
-        index += uy * np.float32(np.cos(edge)) - ux * np.float32(np.sin(edge)) >= 0
-    index[gx == 0] = bins + 1
-    index[gy == 0] = bins
-    planes = np.zeros(index.size * (bins + 2), np.float32)  # float32: 7 times faster below
-    magnitude = np.sqrt(gx * gx + gy * gy)  # not cv2.magnitude: its result varies in the
-    # last bit with the array's alignment
-    planes[index.ravel() + np.arange(index.size) * (bins + 2)] = magnitude.ravel()
-    return cv2.integral(planes.reshape(*crop.shape, bins + 2), sdepth=cv2.CV_64F)
+    return _window_integral(crop, bins, (0, crop.shape[0]), (0, crop.shape[1]))
 
 
-def _cell_sums(integral: np.ndarray, cx: np.ndarray, cy: np.ndarray, config: FeatureConfig,
-               mirrored: bool) -> np.ndarray:
-    """Cell histograms (P, cells, cells, bins + 2) of the patches centred at (cx, cy) (P,)
-    of the crop, or with ``mirrored`` of its mirror image (``cx`` in the mirror image's
-    columns)."""
-    h, w = integral.shape[0] - 1, integral.shape[1] - 1
+def _corners(cx: np.ndarray, cy: np.ndarray, config: FeatureConfig, shape: tuple[int, ...]
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """The integral image's rows and columns (P, cells + 1) of the cell corners of the
+    patches centred at (cx, cy) (P,) of an image of ``shape``, clipped to it."""
+    h, w = shape[:2]
     half, cells = config.hog_half, config.hog_cells
     edges = np.arange(cells + 1) * (2 * half // cells) - half
-    ys = np.clip(cy[:, None] + edges, 0, h)  # (P, cells + 1)
-    xs = np.clip(cx[:, None] + edges, 0, w)
-    if mirrored:  # column c of the mirror image is column w - 1 - c of the crop
-        xs = w - xs  # descending: the sums below come out negated
-    corners = integral[ys[:, :, None], xs[:, None, :]]  # (P, cells + 1, cells + 1, bins + 2)
-    sums = corners[:, 1:, 1:] - corners[:, :-1, 1:] - corners[:, 1:, :-1] + corners[:, :-1, :-1]
-    return -sums if mirrored else sums
+    ys = np.minimum(np.maximum(cy[:, None] + edges, 0), h)
+    xs = np.minimum(np.maximum(cx[:, None] + edges, 0), w)
+    return ys, xs
 
 
-def _normalised(sums: np.ndarray, mirrored: bool) -> np.ndarray:
-    """L2-Hys vectors (P * cells^2 * bins,) of cell histograms (P, cells, cells, bins + 2)."""
-    bins = sums.shape[-1] - 2
-    order = np.arange(bins)[::-1] if mirrored else np.arange(bins)
-    v = sums[..., order].copy()
+def _cell_sums(integral: np.ndarray, ys: np.ndarray, xs: np.ndarray) -> np.ndarray:
+    """Cell histograms (P, cells, cells, bins + 2) of the cells with corners at rows ``ys``
+    and columns ``xs`` (P, cells + 1) of ``integral`` (negated where the columns descend)."""
+    planes = integral.shape[-1]
+    flat = ys[:, :, None] * integral.shape[1] + xs[:, None, :]
+    # integral[ys[:, :, None], xs[:, None, :]], (P, cells + 1, cells + 1, bins + 2), by one take
+    corners = np.take(integral.reshape(-1, planes), flat, axis=0)
+    return corners[:, 1:, 1:] - corners[:, :-1, 1:] - corners[:, 1:, :-1] + corners[:, :-1, :-1]
+
+
+def _hys(v: np.ndarray, sums: np.ndarray) -> np.ndarray:
+    """L2-Hys rows (P, cells^2 * bins) of the cell histograms ``v`` (P, cells, cells, bins)
+    in their bins' order (a copy, changed), the horizontal and vertical planes of ``sums``
+    (P, cells, cells, bins + 2) added to their bins."""
+    bins = v.shape[-1]
     v[..., 0] += sums[..., bins]
     v[..., bins // 2] += sums[..., bins + 1]
-    v = np.maximum(v.reshape(len(sums), -1), 0.0)  # round-off can dip below 0
-    v = np.minimum(v / (np.linalg.norm(v, axis=1, keepdims=True) + _TINY), HYS_CLIP)
-    return (v / (np.linalg.norm(v, axis=1, keepdims=True) + _TINY)).ravel()
+    v = np.maximum(v.reshape(len(v), -1), 0.0)  # round-off can dip below 0
+    v = np.minimum(v / (_norms(v) + _TINY), HYS_CLIP)
+    return v / (_norms(v) + _TINY)
+
+
+def _norms(v: np.ndarray) -> np.ndarray:
+    """The rows' L2 norms (n, 1) of ``v`` (n, d): :func:`numpy.linalg.norm`'s arithmetic,
+    without its overhead."""
+    return np.sqrt(np.add.reduce(v * v, axis=1, keepdims=True))
 
 
 def hog_pair(crop: np.ndarray, points: np.ndarray, config: FeatureConfig
@@ -114,23 +181,45 @@ def hog_pair(crop: np.ndarray, points: np.ndarray, config: FeatureConfig
         ``P = len(config.hog_points)``; ``mirrored`` is :func:`hog_block` of the left-right
         flipped crop at the flipped, mirror-numbered landmarks.
     """
-    integral = integral_histogram(crop, config.hog_bins)
     chosen = list(config.hog_points)
+    n, width = len(chosen), crop.shape[1]
     own = np.round(points[chosen]).astype(np.int64)
-    width = crop.shape[1]
     partner = points[MIRROR][chosen]
-    cx_mirror = np.round(width - 1 - partner[:, 0]).astype(np.int64)
-    cy_mirror = np.round(partner[:, 1]).astype(np.int64)
-    return (_normalised(_cell_sums(integral, own[:, 0], own[:, 1], config, False), False),
-            _normalised(_cell_sums(integral, cx_mirror, cy_mirror, config, True), True))
+    # the own patches' centres, then the mirror patches' (in the mirror image's columns)
+    cx = np.concatenate([own[:, 0], np.round(width - 1 - partner[:, 0]).astype(np.int64)])
+    cy = np.concatenate([own[:, 1], np.round(partner[:, 1]).astype(np.int64)])
+    ys, xs = _corners(cx, cy, config, crop.shape)
+    # column c of the mirror image is column w - 1 - c of the crop: its integral's columns
+    # w - x, descending, so that the mirror patches' sums come out negated
+    xs[n:] = width - xs[n:]
+    rows, cols = _window(ys, xs, crop.shape)
+    integral = _window_integral(crop, config.hog_bins, rows, cols)
+    sums = _cell_sums(integral, ys - rows[0], xs - cols[0])
+    np.negative(sums[n:], out=sums[n:])
+    bins = config.hog_bins
+    v = np.concatenate([sums[:n, ..., :bins], sums[n:, ..., bins - 1::-1]])
+    v = _hys(v, sums)
+    return v[:n].ravel(), v[n:].ravel()
+
+
+def _window(ys: np.ndarray, xs: np.ndarray, shape: tuple[int, ...]
+            ) -> tuple[tuple[int, int], tuple[int, int]]:
+    """The crop's rows and columns (start, stop) whose integral holds the corners at rows
+    ``ys`` and columns ``xs``: at least one pixel."""
+    y0, y1, x0, x1 = int(ys.min()), int(ys.max()), int(xs.min()), int(xs.max())
+    y0, x0 = min(y0, shape[0] - 1), min(x0, shape[1] - 1)
+    return (y0, max(y1, y0 + 1)), (x0, max(x1, x0 + 1))
 
 
 def hog_block(crop: np.ndarray, points: np.ndarray, config: FeatureConfig) -> np.ndarray:
     """HOG of a patch around each of ``config.hog_points`` (:func:`hog_pair`'s first);
     (P * cells^2 * bins,)."""
-    integral = integral_histogram(crop, config.hog_bins)
     centres = np.round(points[list(config.hog_points)]).astype(np.int64)
-    return _normalised(_cell_sums(integral, centres[:, 0], centres[:, 1], config, False), False)
+    ys, xs = _corners(centres[:, 0], centres[:, 1], config, crop.shape)
+    rows, cols = _window(ys, xs, crop.shape)
+    integral = _window_integral(crop, config.hog_bins, rows, cols)
+    sums = _cell_sums(integral, ys - rows[0], xs - cols[0])
+    return _hys(sums[..., :config.hog_bins].copy(), sums).ravel()
 
 
 def patch_symmetry(own: np.ndarray, mirrored: np.ndarray, n_patches: int) -> float:

@@ -14,13 +14,13 @@ from __future__ import annotations
 import numpy as np
 
 from aamcore.expression.crop import (
-    INNER_POINTS,
+    INNER_SLICE,
     FaceFeatureError,
     FaceObservation,
-    approximate_yaw_deg,
     canonical_shape,
     check_landmarks,
     eye_centres,
+    yaw_of_canonical,
 )
 from aamcore.expression.spec import QualityLimits
 
@@ -37,7 +37,14 @@ def reason_key(reason: str) -> str:
 def shape_deviation(points: np.ndarray, template: np.ndarray) -> float:
     """RMS distance (eye distances) of the canonical shape of (68, 2) ``points`` from a
     (68, 2) canonical ``template``."""
-    return float(np.sqrt(np.mean(np.sum((canonical_shape(points) - template) ** 2, axis=1))))
+    return deviation_of_canonical(canonical_shape(points), template)
+
+
+def deviation_of_canonical(shape: np.ndarray, template: np.ndarray) -> float:
+    """:func:`shape_deviation` of landmarks whose canonical shape (68, 2) is ``shape``."""
+    # np.sum and np.mean's arithmetic, without their wrappers
+    squared = np.add.reduce((shape - template) ** 2, axis=1)
+    return float(np.sqrt(np.add.reduce(squared) / len(squared)))
 
 
 def _no_face(observation: FaceObservation) -> str:
@@ -94,32 +101,44 @@ def landmark_problem(
         Empty, or a reason ``"<key>: <details>"`` (``"no face"`` alone when the
         detector found none).
     """
+    return landmark_gate(observation, limits, template)[0]
+
+
+def landmark_gate(
+    observation: FaceObservation,
+    limits: QualityLimits = QualityLimits(),
+    template: np.ndarray | None = None,
+) -> tuple[str, np.ndarray | None]:
+    """:func:`landmark_problem`, and the landmarks' canonical shape (68, 2) where the gate
+    got that far (None otherwise), for the features to use again."""
     points = observation.landmarks
     if points.size == 0:
-        return _no_face(observation)
+        return _no_face(observation), None
     try:
         check_landmarks(points)
     except FaceFeatureError as exc:
-        return f"unusable landmarks: {exc}"
+        return f"unusable landmarks: {exc}", None
     placed = _placement_problem(points, observation.image.shape, limits)
     if placed:
-        return placed
+        return placed, None
     flags = observation.occluded
     if flags is not None:
-        covered = float(np.mean(flags[list(INNER_POINTS)]))
+        covered = float(np.mean(flags[INNER_SLICE]))
         if covered > limits.max_covered:
             return (f"face covered: {100 * covered:.0f} % of the inner landmarks occluded "
-                    f"(at most {100 * limits.max_covered:g} %)")
-    yaw = approximate_yaw_deg(points)
+                    f"(at most {100 * limits.max_covered:g} %)"), None
+    shape = canonical_shape(points)
+    yaw = yaw_of_canonical(shape)
     if abs(yaw) > limits.max_yaw_deg:
-        return f"face in profile: turned about {yaw:.0f} degrees (at most {limits.max_yaw_deg:g})"
+        return (f"face in profile: turned about {yaw:.0f} degrees (at most "
+                f"{limits.max_yaw_deg:g})"), shape
     if template is not None:
-        deviation = shape_deviation(points, template)
+        deviation = deviation_of_canonical(shape, template)
         if deviation > limits.max_shape_deviation:
             return (f"implausible landmarks: {deviation:.2f} eye distances RMS from the face "
                     f"shapes the classifier was trained on (at most "
-                    f"{limits.max_shape_deviation:g})")
-    return ""
+                    f"{limits.max_shape_deviation:g})"), shape
+    return "", shape
 
 
 def symmetry_problem(symmetry: float, limits: QualityLimits = QualityLimits()) -> str:

@@ -75,7 +75,9 @@ class Smoother:
             self._scores.clear()
         self._last_index = frame_index
         self._scores.append(np.asarray(scores, np.float64))
-        return np.mean(self._scores, axis=0), len(self._scores) > 1
+        if len(self._scores) == 1:  # the mean of one: itself (np.mean's value, at less cost)
+            return self._scores[0] / 1.0, False
+        return np.mean(self._scores, axis=0), True
 
 
 STACK_HOLD = defaults.EXPRESSION_HOLD

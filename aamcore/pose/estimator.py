@@ -12,6 +12,7 @@ stack give the same numbers.
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -102,8 +103,10 @@ class HeadPose:
     def angle_sd_deg(self) -> float:
         """The largest predicted sd of roll, pitch and yaw, degrees; NaN when not known."""
         est = self.estimate
-        if isinstance(est, ContourPoseEstimate) and np.all(np.isfinite(est.angle_sd_deg)):
-            return float(np.max(est.angle_sd_deg))
+        if isinstance(est, ContourPoseEstimate):
+            sds = est.angle_sd_deg.tolist()
+            if all(map(math.isfinite, sds)):
+                return max(sds)
         return float("nan")
 
 

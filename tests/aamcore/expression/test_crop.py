@@ -68,3 +68,18 @@ def test_yaw_grows_with_the_nose_offset() -> None:
     left = approximate_yaw_deg(face)
     face[27:36, 0] -= 0.4
     assert 15 < left < 25 and approximate_yaw_deg(face) == pytest.approx(-left)
+
+
+def test_a_colour_frame_gives_the_crop_of_its_grey_levels_wherever_the_face_lies() -> None:
+    """Only the part of a colour frame the crop comes from is made grey: the same crop, to
+    the bit, as from the whole frame's grey levels, for a face inside, across the edge or
+    beyond the frame, and from four channels."""
+    rng = np.random.default_rng(2)
+    frame = rng.integers(0, 256, (120, 160, 3)).astype(np.uint8)
+    for centre, size, roll in (((80.0, 60.0), 40.0, 5.0), ((5.0, 110.0), 60.0, -20.0),
+                               ((-60.0, 30.0), 30.0, 40.0), ((80.0, 60.0), 300.0, 0.0)):
+        points = place(unit_face(), size, roll, centre)
+        for image in (frame, np.dstack([frame, np.full(frame.shape[:2], 7, np.uint8)])):
+            crop = aligned_face(image, points, 128, 48.0, 48.0)[0]
+            np.testing.assert_array_equal(crop, aligned_face(grey(image), points, 128, 48.0,
+                                                             48.0)[0])

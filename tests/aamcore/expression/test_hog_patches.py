@@ -87,3 +87,19 @@ def test_the_mirror_images_hog_is_read_from_the_crops_own_histograms() -> None:
         np.testing.assert_allclose(
             mirrored, hog_block(np.ascontiguousarray(crop[:, ::-1]), flipped[MIRROR], config),
             atol=1e-6)
+
+
+def test_a_uint8_crop_gives_the_histograms_of_its_gradients_worked_out() -> None:
+    """The gradients of a uint8 crop are looked up by value: the same features, to the bit,
+    as a float crop of the same levels, whose gradients are binned per pixel."""
+    rng = np.random.default_rng(6)
+    crop = cv2.GaussianBlur(rng.integers(0, 256, (128, 128)).astype(np.uint8), (0, 0), 1.0)
+    crop[50:80, 20:60] = 255  # saturated: horizontal and vertical edges
+    points = rng.uniform(-20, 148, (68, 2))
+    for config in (FeatureConfig(), FeatureConfig(hog_half=9, hog_cells=3, hog_bins=6)):
+        as_float = crop.astype(np.float32)
+        for own, other in zip(hog_pair(crop, points, config), hog_pair(as_float, points, config),
+                              strict=True):
+            np.testing.assert_array_equal(own, other)
+        np.testing.assert_array_equal(hog_block(crop, points, config),
+                                      hog_block(as_float, points, config))
