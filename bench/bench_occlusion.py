@@ -30,6 +30,12 @@ one, per set and per kind, and of the landmarks flagged on
 Targets: >= 85 % of the covered landmarks flagged, <= 5 % of the visible ones,
 <= 2 % of the landmarks of ``single_face.mp4``.
 
+Also the head pose of every good fit (the default ``contour`` estimator) from all its
+landmarks and from those it does not flag only (the flagged ones left out as non-finite),
+each against the pose of the frame's annotated landmarks (``bench/occlusion_pose.py``):
+whether leaving the flagged landmarks out of the pose pays, on the occluded frames and on
+the others.
+
 Also the expression gate's "face covered" rule per frame
 (:attr:`aamcore.expression.spec.QualityLimits.max_covered`: the share of the inner
 landmarks flagged): of the frames where the occluder hides at least
@@ -55,6 +61,7 @@ from aamcore.io.video import video_frames
 from aamcore.synth.motion_files import video_path
 from aamcore.tracker import FaceTracker
 from bench import options
+from bench.occlusion_pose import PoseErrors, PoseJudge
 from bench.targets import Target
 from bench.tracking_clips import (
     SETS,
@@ -113,10 +120,13 @@ def share(part: int, whole: int) -> str:
 
 
 def score(tracker: FaceTracker, frames: list[np.ndarray], covered: np.ndarray,
-          occluded: bool) -> Tally:
-    """Track ``frames`` from a fresh start and count the flags against ``covered`` (F, N)."""
+          occluded: bool, truth: np.ndarray | None = None, poses: PoseErrors | None = None
+          ) -> Tally:
+    """Track ``frames`` from a fresh start and count the flags against ``covered`` (F, N);
+    with the annotated landmarks ``truth`` (F, N, 2), the pose errors into ``poses``."""
     tracker.reset()
     tracker.frames = 0
+    judge = PoseJudge() if truth is not None and poses is not None else None
     t = Tally()
     for k, frame in enumerate(frames):
         result = tracker.process(frame, k / 30.0)
@@ -125,8 +135,12 @@ def score(tracker: FaceTracker, frames: list[np.ndarray], covered: np.ndarray,
         t.occluded_frames += hand
         if result.occluded is None:
             t.occluded_without_fit += hand
+            if judge is not None:
+                judge.reset()
             continue
         flags = result.occluded
+        if judge is not None:
+            judge.judge(result.landmarks, flags, truth[k], frame.shape[1::-1], hand, poses)
         cov, vis = shares >= COVERED, shares <= VISIBLE
         inner_covered = float(np.mean(cov[INNER]))
         if not hand or inner_covered >= FACE_COVERED:
@@ -195,10 +209,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\n{'sequence':<26}{'covered':>8}{'flagged':>9}{'visible':>8}{'flagged':>9}"
           f"{'clean':>8}{'flagged':>9}{'partly':>7}{'occl.':>6}{'no fit':>8}")
     total, by_set, by_kind = Tally(), {}, {}
+    poses = PoseErrors()
     with threadpool_limits(1):
         for clip, kind in occluder_clips(model, args.per_set, args.frames, args.regenerate):
             assert clip.truth is not None
-            t = score(tracker, video_frames(clip.video), clip.truth.covered, bool(kind))
+            t = score(tracker, video_frames(clip.video), clip.truth.covered, bool(kind),
+                      clip.truth.landmarks, poses)
             print(row(clip.name, t))
             by_set.setdefault(clip.set_name, Tally()).add(t)
             by_kind.setdefault(kind or "none", Tally()).add(t)
@@ -220,6 +236,9 @@ def main(argv: list[str] | None = None) -> int:
     passed &= VISIBLE_FLAGGED.check(100 * visible, f"{clean} in the sequences without the hand")
     print(f"occluded frames without a good fit (no flags): {total.occluded_without_fit} of "
           f"{total.occluded_frames}")
+    print("\nhead pose (contour) of the good fits against that of the annotated landmarks, "
+          "degrees: | frames | from | poses | median | p90 | over 10 deg | no pose |")
+    print("\n".join(poses.rows()))
     print(f"\nexpression gate 'face covered' (share of inner landmarks flagged > limit), frames "
           f"refused: | limit | covered faces (occluder over >= {FACE_COVERED:.0%} of the inner "
           "landmarks) | faces without an occluder | single_face.mp4 |")
