@@ -51,8 +51,7 @@ def analyse_face(
     check : bool
         Run the gate (False: only compute the blocks, for a face known to pass).
     appearance_dim : int, optional
-        The appearance block of a fit without one (a failed regressor fit is not sampled)
-        is this many zeros, the mean face's ``c``: its HOG and shape still say much.
+        A fit without an appearance (a failed regressor fit) gets this many zeros for it.
 
     Returns
     -------

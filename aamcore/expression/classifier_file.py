@@ -255,7 +255,8 @@ class ExpressionClassifier:
 
     def check_fit(self, scheme: str, n_landmarks: int, appearance_dim: int) -> None:
         """Refuse fits of another landmark scheme than the pipeline's, or of another appearance
-        length when the pipeline classifies the appearance.
+        length when the pipeline classifies the appearance (none at all is taken beside the
+        image's blocks: a failed fit's, filled with zeros).
 
         Raises
         ------
@@ -269,7 +270,9 @@ class ExpressionClassifier:
                 f"({N_LANDMARKS} landmarks), not on {scheme} fits with {n_landmarks} landmarks: "
                 "retrain it for this fitting model"
             )
-        if "appearance" in spec.features.blocks and appearance_dim != spec.appearance_dim:
+        blocks = spec.features.blocks
+        filled = appearance_dim == 0 and len(blocks) > 1
+        if "appearance" in blocks and appearance_dim != spec.appearance_dim and not filled:
             raise AAMMismatchError(
                 f"this expression classifier was trained on fits with {spec.appearance_dim} "
                 f"appearance parameters, this fit has {appearance_dim}: retrain it for this AAM"

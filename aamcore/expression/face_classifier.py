@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
@@ -28,8 +28,12 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from aamcore.expression.shrinkage_lda import shrinkage_lda
 from aamcore.expression.svm import SVMModel, tune_svm
 
-if TYPE_CHECKING:
-    from aamcore.expression.network import NetworkModel
+
+class Scorer(Protocol):
+    """A numpy predictor: per-class scores of raw vectors (a LinearModel, an SVMModel or a
+    :class:`~aamcore.expression.network.NetworkModel`)."""
+
+    def scores(self, X: np.ndarray) -> np.ndarray: ...
 
 CLASSIFIERS: tuple[str, ...] = ("logistic", "lda", "rbf_svm")
 """``logistic``: multinomial logistic regression, classes weighted inversely to their
@@ -176,7 +180,7 @@ class FittedFaceClassifier:
         The classifier's name and chosen hyper-parameters.
     """
 
-    model: LinearModel | SVMModel | NetworkModel
+    model: Scorer
     classes: tuple[str, ...]
     kind: str
     params: dict[str, Any]

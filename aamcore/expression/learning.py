@@ -234,13 +234,7 @@ def learn(X: np.ndarray, y: np.ndarray, persons: np.ndarray, sets: np.ndarray,
           dims: Mapping[str, int], recipe: Recipe = Recipe(),
           note: Callable[[str], None] | None = None) -> Learned:
     """The absolute and relative models of vectors X (n, d) of classes y, people ``persons``
-    and expression sets ``sets`` (module docstring).
-
-    Raises
-    ------
-    ValueError
-        With fewer than two classes.
-    """
+    and expression sets ``sets`` (module docstring); ValueError with fewer than two classes."""
     y = np.asarray(y).astype(str)
     if len(np.unique(y)) < 2:
         raise ValueError(f"two classes or more are needed to learn, got {sorted(set(y))}")
@@ -263,8 +257,8 @@ def learn(X: np.ndarray, y: np.ndarray, persons: np.ndarray, sets: np.ndarray,
     t_abs = _temperature(scores, y, model.classes)
     if recipe.class_biases:
         model, scores, t_abs = _biased(model, scores, y, t_abs)
-    neutral = neutral_probability(softmax(scores, t_abs), model.classes) >= recipe.min_neutral
-    R, has = person_references(X, persons, recipe.min_reference_faces, neutral)
+    R, has = person_references(X, persons, recipe.min_reference_faces, neutral_probability(
+        softmax(scores, t_abs), model.classes) >= recipe.min_neutral)
     learned = Learned(model, None, t_abs, 1.0, 1.0, recipe.absolute_weight,
                       {"absolute": len(y), "relative": int(has.sum())}, recipe.min_neutral)
     if len(np.unique(y[has])) < 2:

@@ -190,10 +190,15 @@ def test_bad_vectors_and_unfitted_estimators_are_refused(features: Features) -> 
                                             appearance_spec(3))
 
 
-def test_a_pipeline_without_the_appearance_takes_fits_without_one(classifier_path) -> None:
-    # Trackers that compute no AAM appearance publish fits with an empty one.
+def test_the_deployed_pipeline_takes_fits_without_an_appearance(classifier_path) -> None:
+    # A failed fit of a landmark regressor is published without an appearance: its HOG and
+    # shape are classified beside zeros; an appearance of another length is another AAM's.
     classifier = ExpressionClassifier.load(classifier_path)
-    assert "appearance" not in classifier.pipeline.features.blocks
+    spec = classifier.pipeline
+    assert "appearance" in spec.features.blocks and len(spec.features.blocks) > 1
     classifier.check_fit("ibug68", 68, 0)
+    classifier.check_fit("ibug68", 68, spec.appearance_dim)
+    with pytest.raises(AAMMismatchError, match="appearance parameters"):
+        classifier.check_fit("ibug68", 68, spec.appearance_dim + 1)
     with pytest.raises(AAMMismatchError, match="not on imm58 fits"):
         classifier.check_fit("imm58", 58, 0)
