@@ -51,7 +51,7 @@ from aamcore.io.versioned import checked_header, save_npz
 
 FORMAT_NAME = "aamtrack-expression-classifier"
 FORMAT_VERSION = 5
-KINDS = ("linear", "lda_mahalanobis", "svm_ova", "svm_ovo", "svm_dag")
+KINDS = ("linear", "lda_mahalanobis", "svm_ova", "svm_ovo", "svm_dag", "network")
 _HEADER = "header"
 _TEMPLATE = "pipeline_template"
 _ABSOLUTE = "absolute_"
@@ -65,7 +65,7 @@ class AAMMismatchError(ValueError):
     """A classifier is used with fits of another fitting model than it was trained on."""
 
 
-Model = LinearModel | MahalanobisModel | SVMModel
+Model = LinearModel | MahalanobisModel | SVMModel | NetworkModel
 Absolute = LinearModel | NetworkModel
 
 
@@ -114,8 +114,8 @@ class ExpressionClassifier:
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise ValueError(f"unknown classifier kind {self.kind!r} (expected one of {KINDS})")
-        expected = {"linear": LinearModel, "lda_mahalanobis": MahalanobisModel}.get(
-            self.kind, SVMModel)
+        expected = {"linear": LinearModel, "lda_mahalanobis": MahalanobisModel,
+                    "network": NetworkModel}.get(self.kind, SVMModel)
         if not isinstance(self.model, expected):
             raise ValueError(f"a {self.kind} classifier needs a {expected.__name__}")
         if isinstance(self.model, MahalanobisModel):
@@ -353,8 +353,8 @@ class ExpressionClassifier:
             pipeline = PipelineSpec.from_json(header["pipeline"], template)
             if bool(header["has_absolute"]) != bool(absolute):
                 raise ValueError("the absolute model's arrays do not match the header")
-            if kind == "linear":
-                model: Model = LinearModel.from_arrays(arrays)
+            if kind in ("linear", "network"):
+                model: Model = stored_model(arrays)
             elif kind == "lda_mahalanobis":
                 model = MahalanobisModel.from_arrays(arrays)
             else:
