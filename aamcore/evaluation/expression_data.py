@@ -4,7 +4,9 @@
 fits a stream's first frame (:func:`~aamcore.expression.faces.fit_faces`) and computes
 its deployed feature vector and the quality gate's verdict; both are kept in the model
 cache (named after the model's fingerprint, the algorithm and the versions of the fits
-and features), so that the benchmark's runs reuse them. :class:`BenchFaces` holds them
+and features), so that the benchmark's runs reuse them. The blocks computed from the image
+(HOG, shape) are what is kept; the appearance block, the fit's ``c`` itself, is appended
+from the fits on load. :class:`BenchFaces` holds them
 with the class, person (``set/person``), set and held-out flag of each face.
 """
 
@@ -87,6 +89,22 @@ class BenchFaces:
                           self.dims)
 
 
+IMAGE_FEATURES = FEATURES.with_blocks(tuple(b for b in FEATURES.blocks if b != "appearance"))
+"""The deployed blocks the cache keeps: all but the appearance, which comes last."""
+
+
+def _with_appearance(part: BenchFaces) -> BenchFaces:
+    """``part`` with the appearance block appended to X when the deployed features have it
+    (zero where the gate refused the face, as :func:`~aamcore.expression.analysis.observe`
+    leaves refused rows)."""
+    if "appearance" not in FEATURES.blocks:
+        return part
+    c = np.where(part.ok[:, None], np.nan_to_num(part.faces.appearance), 0.0)
+    c = c.astype(np.float32).astype(np.float64)  # as the bench keeps the other blocks
+    return BenchFaces(part.faces, np.hstack([part.X, c]), part.problems,
+                      part.dims | {"appearance": c.shape[1]})
+
+
 def _set_faces(model: Path, name: str, config: FitterConfig, say: Callable[[str], None]
                ) -> BenchFaces:
     stem = (f"expression-bench-{model_fingerprint(model)}-{config.algorithm}-{name}"
@@ -102,8 +120,8 @@ def _set_faces(model: Path, name: str, config: FitterConfig, say: Callable[[str]
                                                                      strict=True)})
     say(f"fitting every face of {name} once (kept in {path.parent})")
     faces = fit_faces(FittingModel.load(model), load_expression_set(name), config)
-    observed = observe(faces.observations, FEATURES, QualityLimits())
-    X, dims = observed.vectors(FEATURES.blocks), observed.dims(FEATURES.blocks)
+    observed = observe(faces.observations, IMAGE_FEATURES, QualityLimits())
+    X, dims = observed.vectors(IMAGE_FEATURES.blocks), observed.dims(IMAGE_FEATURES.blocks)
     problems = np.array(observed.problems)
     tmp = path.with_name(f"{stem}.tmp.npz")
     faces.save(tmp)
@@ -120,7 +138,8 @@ def bench_faces(model: str | Path, sets: Sequence[str] = EXPRESSION_SETS,
                 ) -> BenchFaces:
     """Every face of ``sets`` fitted by ``model`` as ``config`` says, with its features
     (cached; module docstring)."""
-    parts = [_set_faces(Path(model), name, config, say or (lambda _: None)) for name in sets]
+    parts = [_with_appearance(_set_faces(Path(model), name, config, say or (lambda _: None)))
+             for name in sets]
     return BenchFaces(LabelledFaces.concatenate([p.faces for p in parts]),
                       np.vstack([p.X for p in parts]), np.concatenate([p.problems for p in parts]),
                       parts[0].dims)

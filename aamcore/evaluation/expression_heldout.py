@@ -31,7 +31,13 @@ from aamcore.evaluation.expression_results import NOT_CLASSIFIED, EvaluationResu
 from aamcore.expression.classifier_file import ExpressionClassifier
 from aamcore.expression.crop import canonical_shape
 from aamcore.expression.labels import SEVEN_CLASSES
-from aamcore.expression.learning import Learned, Recipe, learn, person_references
+from aamcore.expression.learning import (
+    Learned,
+    Recipe,
+    learn,
+    neutral_probability,
+    person_references,
+)
 from aamcore.expression.pipeline import ExpressionPipeline
 from aamcore.expression.quality import shape_deviation
 from aamcore.expression.spec import QualityLimits
@@ -68,9 +74,25 @@ def result(name: str, bench: BenchFaces, mask: np.ndarray, predicted: np.ndarray
                             predicted[mask].astype(str), bench.persons[mask])
 
 
-def session_references(bench: BenchFaces, usable: np.ndarray) -> np.ndarray:
-    """Each face's session reference (n, d): the median of its person's usable faces."""
-    return person_references(bench.X, np.where(usable, bench.persons, ""), 1)[0]
+def session_references(bench: BenchFaces, usable: np.ndarray,
+                       neutral: np.ndarray | None = None) -> np.ndarray:
+    """Each face's session reference (n, d): the median of its person's usable faces (that
+    look ``neutral`` (n,) when given; zero for a person without one)."""
+    kept = usable if neutral is None else usable & neutral
+    return person_references(bench.X, np.where(usable, bench.persons, ""), 1, kept)[0]
+
+
+def sessions(bench: BenchFaces, usable: np.ndarray, p_abs: np.ndarray,
+             classes: tuple[str, ...], min_neutral: float) -> tuple[np.ndarray, np.ndarray]:
+    """The session references (m, d) of the ``usable`` faces (n,) (m of them) whose
+    person-independent probabilities are ``p_abs`` (m, C), each the median of its person's
+    faces that look neutral (:class:`~aamcore.expression.reference.NeutralReference`), and
+    which of them (m,) have one."""
+    neutral = np.zeros(len(bench.labels), bool)
+    neutral[usable] = neutral_probability(p_abs, classes) >= min_neutral
+    R = session_references(bench, usable, neutral)[usable]
+    people = bench.persons[usable]
+    return R, np.isin(people, people[neutral[usable]])
 
 
 def fold_models(bench: BenchFaces, train: np.ndarray, recipe: Recipe
@@ -96,9 +118,11 @@ def fold_predictions(bench: BenchFaces, learned: Learned, template: np.ndarray,
     if usable.any():
         classes = np.array(learned.absolute.classes)
         X = bench.X[usable]
-        fresh[usable] = classes[learned.absolute_probabilities(X).argmax(axis=1)]
-        R = session_references(bench, usable)[usable]
-        session[usable] = classes[learned.fused_probabilities(X, R).argmax(axis=1)]
+        p_abs = learned.absolute_probabilities(X)
+        fresh[usable] = classes[p_abs.argmax(axis=1)]
+        R, has = sessions(bench, usable, p_abs, learned.absolute.classes, learned.min_neutral)
+        p = np.where(has[:, None], learned.fused_probabilities(X, R), p_abs)
+        session[usable] = classes[p.argmax(axis=1)]
     return fresh, session
 
 
@@ -121,8 +145,9 @@ def deployed_predictions(bench: BenchFaces, classifier: ExpressionClassifier,
     usable = test & (fresh != NOT_CLASSIFIED)
     if usable.any() and classifier.absolute is not None:
         X = bench.X[usable]
-        R = session_references(bench, usable)[usable]
-        p = classifier.fused_probabilities(X - R, X)
+        p_abs = classifier.absolute_probabilities(X)
+        R, has = sessions(bench, usable, p_abs, classifier.class_names, min_neutral(classifier))
+        p = np.where(has[:, None], classifier.fused_probabilities(X - R, X), p_abs)
         session[usable] = np.array(classifier.class_names)[p.argmax(axis=1)]
     return fresh, session, reasons
 
@@ -235,7 +260,8 @@ def served_match(bench: BenchFaces, classifier: ExpressionClassifier,
                  name: str = "taiwan_expressions") -> Match:
     """Each held-out person's classifiable faces streamed through an
     :class:`ExpressionPipeline` (each face for ``stride`` frames, as a held expression is),
-    against the reference the training gives that person (the median of the same faces):
+    against the reference the training gives that person (the median of the same faces that
+    look neutral), people with such a face:
     the largest difference of the two references and how many faces the fused model labels
     alike with either."""
     test = bench.held & (bench.sets == name)
@@ -243,8 +269,11 @@ def served_match(bench: BenchFaces, classifier: ExpressionClassifier,
     usable = test & (session != NOT_CLASSIFIED)
     stride = int(classifier.pipeline.reference["stride"])
     worst, agree = 0.0, 0
-    names = np.unique(bench.persons[usable])
-    trained = session_references(bench, usable)
+    assert classifier.absolute is not None
+    trained, has = sessions(bench, usable, classifier.absolute_probabilities(bench.X[usable]),
+                            classifier.class_names, min_neutral(classifier))
+    names = np.unique(bench.persons[usable][has])
+    trained_of = dict(zip(bench.persons[usable], trained, strict=True))
     for person in names:
         members = np.flatnonzero(usable & (bench.persons == person))
         pipeline = ExpressionPipeline(classifier)
@@ -253,12 +282,17 @@ def served_match(bench: BenchFaces, classifier: ExpressionClassifier,
             for _ in range(stride):
                 pipeline.process(observation)
         served = pipeline.reference.reference()
-        worst = max(worst, float(np.abs(served - trained[members[0]]).max()))
+        worst = max(worst, float(np.abs(served - trained_of[person]).max()))
         X = bench.X[members]
         p = classifier.fused_probabilities(X - served, X)
         agree += int(np.sum(np.array(classifier.class_names)[p.argmax(axis=1)]
                             == session[members]))
-    return Match(len(names), int(usable.sum()), worst, agree)
+    return Match(len(names), int(np.isin(bench.persons[usable], names).sum()), worst, agree)
+
+
+def min_neutral(classifier: ExpressionClassifier) -> float:
+    """The neutral probability a face needs to enter the classifier's stream reference."""
+    return float(classifier.pipeline.reference.get("min_neutral", 0.0))
 
 
 def process_ms(bench: BenchFaces, classifier: ExpressionClassifier, repeats: int = 3

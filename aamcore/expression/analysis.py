@@ -36,6 +36,7 @@ def analyse_face(
     limits: QualityLimits = QualityLimits(),
     template: np.ndarray | None = None,
     check: bool = True,
+    appearance_dim: int | None = None,
 ) -> tuple[str, Blocks | None]:
     """The quality gate and the feature blocks of one face.
 
@@ -49,6 +50,8 @@ def analyse_face(
         Canonical shape template of the gate (:func:`~aamcore.expression.quality.landmark_problem`).
     check : bool
         Run the gate (False: only compute the blocks, for a face known to pass).
+    appearance_dim : int, optional
+        A fit without an appearance (a failed regressor fit) gets this many zeros for it.
 
     Returns
     -------
@@ -84,6 +87,8 @@ def analyse_face(
             blocks[name] = hog
         elif name == "shape":
             blocks[name] = (canonical_shape(points) if shape is None else shape).ravel()
+        elif observation.appearance.size == 0 and appearance_dim is not None:
+            blocks[name] = np.zeros(appearance_dim)
         else:
             blocks[name] = np.asarray(observation.appearance, np.float64).copy()
     return "", blocks
@@ -153,6 +158,7 @@ def observe(
     config: FeatureConfig,
     limits: QualityLimits = QualityLimits(),
     template: np.ndarray | None = None,
+    appearance_dim: int | None = None,
 ) -> Observed:
     """:func:`analyse_face` of each observation, gate included.
 
@@ -162,6 +168,8 @@ def observe(
     config : FeatureConfig
     limits, template
         Of the gate.
+    appearance_dim : int, optional
+        As :func:`analyse_face`.
 
     Returns
     -------
@@ -171,7 +179,8 @@ def observe(
     problems = []
     for observation in observations:
         try:
-            problem, blocks = analyse_face(observation, config, limits, template)
+            problem, blocks = analyse_face(observation, config, limits, template,
+                                           appearance_dim=appearance_dim)
         except FaceFeatureError as exc:
             problem, blocks = f"no features: {exc}", None
         rows.append(blocks)

@@ -1,9 +1,8 @@
 """A trained expression classifier with its feature pipeline, saved and loaded without pickle.
 
-A classifier file is one ``.npz`` archive. Its ``header`` entry holds UTF-8
-JSON bytes::
+A classifier file is one ``.npz`` archive. Its ``header`` entry holds UTF-8 JSON bytes::
 
-    {"format": "aamtrack-expression-classifier", "format_version": 4,
+    {"format": "aamtrack-expression-classifier", "format_version": 5,
      "kind": "linear", "class_names": ["NE", ...], "feature_dim": 1972,
      "aam_fingerprint": "...", "info": {...}, "pipeline": {...},
      "temperature": 0.8, "absolute_temperature": 0.8, "has_absolute": true,
@@ -11,27 +10,24 @@ JSON bytes::
 
 and every other entry is a plain numeric array of the pure numpy predictor
 (:class:`~aamcore.expression.face_classifier.LinearModel`,
-:class:`~aamcore.expression.lda.MahalanobisModel` or
-:class:`~aamcore.expression.svm.SVMModel`) or the pipeline's shape template
-(``pipeline_template``), so the archive loads with ``allow_pickle=False``.
-A relative pipeline's file also holds a person-independent
-:class:`~aamcore.expression.face_classifier.LinearModel` of the absolute
-vectors (entries ``absolute_*``), which decides until the stream has a
-reference; once it has, the two models' log-probabilities are fused, the
-absolute one weighted by ``absolute_weight`` (:func:`~aamcore.expression.learning.fuse`).
-Each ``temperature`` turns scores into probabilities
-(:mod:`~aamcore.expression.calibration`), fitted on held-out people.
+:class:`~aamcore.expression.lda.MahalanobisModel` or :class:`~aamcore.expression.svm.SVMModel`)
+or the pipeline's shape template (``pipeline_template``), so the archive loads with
+``allow_pickle=False``. A relative pipeline's file also holds a person-independent
+:class:`~aamcore.expression.face_classifier.LinearModel` or
+:class:`~aamcore.expression.network.NetworkModel` of the absolute vectors (entries
+``absolute_*``), which decides until the stream has a reference; once it has, the two
+models' log-probabilities are fused, the absolute one weighted by ``absolute_weight``
+(:func:`~aamcore.expression.learning.fuse`). Each ``temperature`` turns scores into
+probabilities (:mod:`~aamcore.expression.calibration`), fitted on held-out people.
 
-``pipeline`` is the :class:`~aamcore.expression.spec.PipelineSpec`: which
-features are classified, relative to which reference, behind which quality
-gate. ``aam_fingerprint`` names the fitting model whose fits the classifier
-was trained on: landmarks and appearance vectors of another model have
-another meaning, and :meth:`ExpressionClassifier.check_aam` refuses them.
-Refused at load, each with what to do: another format version (format 1
-classified raw appearance vectors and had no pipeline, 2 had no probabilities, 3
-no fusion), features of another
-:data:`~aamcore.expression.spec.FEATURE_VERSION`, a pipeline whose vectors
-do not fit the model.
+``pipeline`` is the :class:`~aamcore.expression.spec.PipelineSpec`: which features are
+classified, relative to which reference, behind which quality gate. ``aam_fingerprint``
+names the fitting model whose fits the classifier was trained on: landmarks and appearance
+vectors of another model have another meaning, and :meth:`ExpressionClassifier.check_aam`
+refuses them. Refused at load, each with what to do: another format version (format 1
+classified raw appearance vectors and had no pipeline, 2 had no probabilities, 3 no fusion,
+4 no network), features of another :data:`~aamcore.expression.spec.FEATURE_VERSION`, a
+pipeline whose vectors do not fit the model.
 """
 
 from __future__ import annotations
@@ -48,13 +44,14 @@ from aamcore.expression.crop import N_LANDMARKS
 from aamcore.expression.face_classifier import FittedFaceClassifier, LinearModel
 from aamcore.expression.lda import FisherMahalanobis, MahalanobisModel
 from aamcore.expression.learning import Learned, fuse
+from aamcore.expression.network import NetworkModel, stored_model
 from aamcore.expression.spec import FEATURE_VERSION, PipelineSpec
 from aamcore.expression.svm import SVMExpressionClassifier, SVMModel
 from aamcore.io.versioned import checked_header, save_npz
 
 FORMAT_NAME = "aamtrack-expression-classifier"
-FORMAT_VERSION = 4
-KINDS = ("linear", "lda_mahalanobis", "svm_ova", "svm_ovo", "svm_dag")
+FORMAT_VERSION = 5
+KINDS = ("linear", "lda_mahalanobis", "svm_ova", "svm_ovo", "svm_dag", "network")
 _HEADER = "header"
 _TEMPLATE = "pipeline_template"
 _ABSOLUTE = "absolute_"
@@ -68,7 +65,8 @@ class AAMMismatchError(ValueError):
     """A classifier is used with fits of another fitting model than it was trained on."""
 
 
-Model = LinearModel | MahalanobisModel | SVMModel
+Model = LinearModel | MahalanobisModel | SVMModel | NetworkModel
+Absolute = LinearModel | NetworkModel
 
 
 @dataclass(frozen=True)
@@ -91,7 +89,7 @@ class ExpressionClassifier:
         Free JSON-serialisable notes (parameters, features, training set).
     temperature : float
         Of the softmax that makes :meth:`probabilities` of the scores.
-    absolute : LinearModel or None
+    absolute : LinearModel, NetworkModel or None
         The person-independent model of absolute vectors (relative pipelines).
     absolute_temperature : float
         Of :meth:`absolute_probabilities`.
@@ -108,7 +106,7 @@ class ExpressionClassifier:
     pipeline: PipelineSpec
     info: dict[str, Any] = field(default_factory=dict)
     temperature: float = 1.0
-    absolute: LinearModel | None = None
+    absolute: Absolute | None = None
     absolute_temperature: float = 1.0
     absolute_weight: float = 0.0
     fused_temperature: float = 1.0
@@ -116,8 +114,8 @@ class ExpressionClassifier:
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise ValueError(f"unknown classifier kind {self.kind!r} (expected one of {KINDS})")
-        expected = {"linear": LinearModel, "lda_mahalanobis": MahalanobisModel}.get(
-            self.kind, SVMModel)
+        expected = {"linear": LinearModel, "lda_mahalanobis": MahalanobisModel,
+                    "network": NetworkModel}.get(self.kind, SVMModel)
         if not isinstance(self.model, expected):
             raise ValueError(f"a {self.kind} classifier needs a {expected.__name__}")
         if isinstance(self.model, MahalanobisModel):
@@ -157,12 +155,14 @@ class ExpressionClassifier:
     ) -> ExpressionClassifier:
         """Wrap a classifier of :func:`~aamcore.expression.face_classifier.fit_face_classifier`
         with the pipeline that makes its vectors, and the person-independent linear model of
-        absolute vectors when there is one (with the same classes)."""
+        absolute vectors (or network) when there is one (with the same classes)."""
         notes = {"classifier_params": fitted.params} | dict(info or {})
         model = None
         if absolute is not None:
-            if absolute.classes != fitted.classes or not isinstance(absolute.model, LinearModel):
-                raise ValueError("the absolute model must be linear, with the same classes")
+            if absolute.classes != fitted.classes \
+                    or not isinstance(absolute.model, LinearModel | NetworkModel):
+                raise ValueError("the absolute model must be linear or a network, with the "
+                                 "same classes")
             model = absolute.model
         return cls(fitted.kind, fitted.classes, aam_fingerprint, fitted.model, pipeline, notes,
                    temperature, model, absolute_temperature)
@@ -173,6 +173,7 @@ class ExpressionClassifier:
         """The models of :func:`~aamcore.expression.learning.learn`: the relative one with the
         absolute one beside it, or the absolute one alone (then ``pipeline`` is absolute)."""
         absolute, notes = learned.absolute, {"classifier_params": learned.absolute.params}
+        info = {"absolute_params": absolute.params} | dict(info or {})
         if learned.relative is None:
             if pipeline.relative:
                 raise ValueError("a relative pipeline needs the relative model")
@@ -254,7 +255,8 @@ class ExpressionClassifier:
 
     def check_fit(self, scheme: str, n_landmarks: int, appearance_dim: int) -> None:
         """Refuse fits of another landmark scheme than the pipeline's, or of another appearance
-        length when the pipeline classifies the appearance.
+        length when the pipeline classifies the appearance (none at all is taken beside the
+        image's blocks: a failed fit's, filled with zeros).
 
         Raises
         ------
@@ -268,7 +270,9 @@ class ExpressionClassifier:
                 f"({N_LANDMARKS} landmarks), not on {scheme} fits with {n_landmarks} landmarks: "
                 "retrain it for this fitting model"
             )
-        if "appearance" in spec.features.blocks and appearance_dim != spec.appearance_dim:
+        blocks = spec.features.blocks
+        filled = appearance_dim == 0 and len(blocks) > 1
+        if "appearance" in blocks and appearance_dim != spec.appearance_dim and not filled:
             raise AAMMismatchError(
                 f"this expression classifier was trained on fits with {spec.appearance_dim} "
                 f"appearance parameters, this fit has {appearance_dim}: retrain it for this AAM"
@@ -349,15 +353,15 @@ class ExpressionClassifier:
             pipeline = PipelineSpec.from_json(header["pipeline"], template)
             if bool(header["has_absolute"]) != bool(absolute):
                 raise ValueError("the absolute model's arrays do not match the header")
-            if kind == "linear":
-                model: Model = LinearModel.from_arrays(arrays)
+            if kind in ("linear", "network"):
+                model: Model = stored_model(arrays)
             elif kind == "lda_mahalanobis":
                 model = MahalanobisModel.from_arrays(arrays)
             else:
                 model = SVMModel.from_arrays(arrays, kind.removeprefix("svm_"), len(names))
             classifier = cls(kind, names, header["aam_fingerprint"], model, pipeline,
                              header["info"], float(header["temperature"]),
-                             LinearModel.from_arrays(absolute) if absolute else None,
+                             stored_model(absolute) if absolute else None,
                              float(header["absolute_temperature"]),
                              float(header["absolute_weight"]),
                              float(header["fused_temperature"]))
@@ -376,7 +380,7 @@ def _read_header(path: Path, raw: np.ndarray | None) -> dict[str, Any]:
     header = checked_header(path, raw, FORMAT_NAME, FORMAT_VERSION, "classifier",
                             "retrain it (aamtrack model prepare trains the stack's; format 1 "
                             "classified raw appearance vectors, format 2 had no probabilities, "
-                            "format 3 learned from JAFFE alone)",
+                            "format 3 learned from JAFFE alone, format 4 had no network)",
                             ClassifierFileError)
     needed = {"kind", "class_names", "feature_dim", "aam_fingerprint", "info", "pipeline",
               "temperature", "absolute_temperature", "has_absolute", "absolute_weight",

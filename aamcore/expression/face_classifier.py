@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
@@ -27,6 +27,13 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from aamcore.expression.shrinkage_lda import shrinkage_lda
 from aamcore.expression.svm import SVMModel, tune_svm
+
+
+class Scorer(Protocol):
+    """A numpy predictor: per-class scores of raw vectors (a LinearModel, an SVMModel or a
+    :class:`~aamcore.expression.network.NetworkModel`)."""
+
+    def scores(self, X: np.ndarray) -> np.ndarray: ...
 
 CLASSIFIERS: tuple[str, ...] = ("logistic", "lda", "rbf_svm")
 """``logistic``: multinomial logistic regression, classes weighted inversely to their
@@ -139,6 +146,11 @@ class LinearModel:
         """Per-class scores of the rows of X (n, d), shape (n, n_classes)."""
         return ((X - self.mean) / self.scale) @ self.coef.T + self.intercept
 
+    def shifted(self, offset: np.ndarray) -> LinearModel:
+        """The same model with ``offset`` (n_classes,) added to every row's scores."""
+        return LinearModel(self.mean, self.scale, self.coef,
+                           self.intercept + np.asarray(offset, np.float64))
+
     def to_arrays(self) -> dict[str, np.ndarray]:
         """The arrays to store, by name."""
         return {"mean": self.mean, "scale": self.scale, "coef": self.coef,
@@ -157,17 +169,18 @@ class FittedFaceClassifier:
 
     Attributes
     ----------
-    model : LinearModel or SVMModel
+    model : LinearModel, SVMModel or NetworkModel
         The numpy predictor of raw (unscaled) feature vectors.
     classes : tuple of str
         Class of each score column.
     kind : str
-        ``"linear"`` or ``"svm_ova"`` (a kind of the classifier file).
+        ``"linear"``, ``"svm_ova"`` (kinds of the classifier file) or ``"network"`` (a
+        person-independent model only).
     params : dict
         The classifier's name and chosen hyper-parameters.
     """
 
-    model: LinearModel | SVMModel
+    model: Scorer
     classes: tuple[str, ...]
     kind: str
     params: dict[str, Any]

@@ -93,7 +93,8 @@ class LabelledFaces:
     landmarks : (n, 68, 2) float64 array
         NaN where no face was found.
     appearance : (n, k) float64 array
-        The fit's ``c``; NaN where no face was found.
+        The fit's ``c``; NaN where no face was found or the fit has none (a failed fit of
+        a landmark regressor is not sampled).
     fit_failed : (n,) bool array
         The fitter's own test rejected the fit (or no face).
     reasons : (n,) str array
@@ -136,9 +137,10 @@ class LabelledFaces:
     def observation(self, i: int) -> FaceObservation:
         """Face ``i`` as the expression stage sees it."""
         found = not self.no_face[i]
+        sampled = found and bool(np.isfinite(self.appearance[i]).all())
         return FaceObservation.from_arrays(
             self.image(i), self.landmarks[i] if found else None,
-            self.appearance[i] if found else None, bool(self.fit_failed[i]),
+            self.appearance[i] if sampled else None, bool(self.fit_failed[i]),
             str(self.reasons[i]))
 
     def subset(self, keep: np.ndarray) -> LabelledFaces:

@@ -1,17 +1,21 @@
 """The expression models learned from labelled faces of many people (scikit-learn).
 
-Two multinomial logistic regressions of the face-feature vectors
-(:func:`~aamcore.expression.face_classifier.fit_logistic`, classes weighted inversely to
-their frequency, each expression set weighted as :class:`Recipe` says):
+Two models of the face-feature vectors, classes weighted alike, each expression set
+weighted as :class:`Recipe` says:
 
 - the **person-independent** (absolute) model of the vectors themselves: it answers a
-  stream's first frames, and any frame of a stream without a reference yet;
-- the **relative** model of ``vector - reference``, where a face's reference is the
-  per-feature median of its person's classifiable faces: what the stream's reference (the
-  running median of its classifiable frames,
-  :class:`~aamcore.expression.reference.NeutralReference`) becomes over a session of that
-  person. Only people with at least
-  ``Recipe.min_reference_faces`` faces train it.
+  stream's first frames, and any frame of a stream without a reference yet. A multinomial
+  logistic regression (:func:`~aamcore.expression.face_classifier.fit_logistic`) or a small
+  network (:func:`~aamcore.expression.network.fit_network`); with ``Recipe.class_biases``
+  its classes are offset (:func:`~aamcore.expression.calibration.class_biases`) so that on
+  people it never saw (its out-of-fold scores) the label it gives is right as often as it
+  can be, neutral included;
+- the **relative** model (logistic) of ``vector - reference``, where a face's reference is
+  the per-feature median of its person's faces that the person-independent model, not
+  having seen that person, calls neutral with probability ``Recipe.min_neutral`` or more:
+  what the stream's reference (:class:`~aamcore.expression.reference.NeutralReference`)
+  becomes over a session of that person. Only people with at least
+  ``Recipe.min_reference_faces`` such faces train it.
 
 Once a stream's reference is ready the two are fused: ``log p_rel + w log p_abs``
 (``w = Recipe.absolute_weight``) through a softmax of its own temperature. The three
@@ -22,13 +26,19 @@ probability means on new people what it says.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from aamcore.expression.calibration import fit_temperature, softmax
+from aamcore.expression.calibration import class_biases, fit_temperature, softmax
 from aamcore.expression.face_classifier import FittedFaceClassifier, fit_logistic
+from aamcore.expression.network import fit_network
 from aamcore.expression.reference import poser_references
+
+NEUTRAL = "NE"
+"""The class a stream's reference estimates."""
+LEARNERS = ("logistic", "network")
+"""The person-independent models :class:`Recipe` may choose."""
 
 
 @dataclass(frozen=True)
@@ -48,6 +58,24 @@ class Recipe:
         Faces a person needs for a reference of their own (the relative model's rows).
     folds : int
         Folds of whole people for the out-of-fold scores the temperatures are fitted on.
+    learner : str
+        The person-independent model: ``"logistic"`` (``C``) or ``"network"``
+        (:func:`~aamcore.expression.network.fit_network` with ``hidden``, ``alpha`` and
+        ``epochs``).
+    hidden, alpha, epochs
+        Of the network.
+    balance : str
+        How the person-independent model weighs its faces besides the set weights:
+        ``"class"`` (each class alike) or ``"set_class"`` (each class of each set alike: a
+        class one set rarely shows, as the Taiwanese performers' neutral face, weighs as
+        much as the others of that set).
+    class_biases : bool
+        Offset the person-independent model's classes by
+        :func:`~aamcore.expression.calibration.class_biases` of its out-of-fold scores.
+    min_neutral : float
+        Smallest out-of-fold probability of being neutral of a face that enters its person's
+        reference (the stream's ``min_neutral``, :class:`~aamcore.expression.reference.
+        NeutralReference`); a person needs ``min_reference_faces`` such faces.
     """
 
     C: float = 1.0
@@ -56,17 +84,41 @@ class Recipe:
     set_weights: tuple[tuple[str, float], ...] = ()
     min_reference_faces: int = 3
     folds: int = 4
+    learner: str = "logistic"
+    hidden: int = 256
+    alpha: float = 1e-2
+    epochs: int = 60
+    balance: str = "class"
+    class_biases: bool = False
+    min_neutral: float = 0.0
 
     def __post_init__(self) -> None:
         if not (self.C > 0 and self.relative_C > 0 and self.absolute_weight >= 0):
             raise ValueError("C and relative_C must be > 0, absolute_weight >= 0")
         if self.min_reference_faces < 1 or self.folds < 2:
             raise ValueError("min_reference_faces >= 1 and folds >= 2 are needed")
+        if self.learner not in LEARNERS:
+            raise ValueError(f"unknown learner {self.learner!r}: choose one of {LEARNERS}")
+        if self.balance not in ("class", "set_class"):
+            raise ValueError(f"unknown balance {self.balance!r}: class or set_class")
 
     def weights_of(self, sets: np.ndarray) -> np.ndarray:
         """Sample weight (n,) of faces of the expression sets ``sets`` (n,)."""
         table = dict(self.set_weights)
         return np.array([table.get(str(s), 1.0) for s in sets], np.float64)
+
+    def absolute_weights(self, sets: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Sample weight (n,) of the person-independent model's faces of sets ``sets`` (n,)
+        and classes ``y`` (n,): the set weights, times ``1 / faces of the set's class``
+        with ``balance`` ``"set_class"`` (mean 1)."""
+        weight = self.weights_of(sets)
+        if self.balance == "set_class":
+            cells = np.char.add(np.char.add(np.asarray(sets).astype(str), "/"),
+                                np.asarray(y).astype(str))
+            _, index, counts = np.unique(cells, return_inverse=True, return_counts=True)
+            weight = weight / counts[index]
+            weight *= len(weight) / weight.sum()
+        return weight
 
 
 @dataclass
@@ -83,6 +135,8 @@ class Learned:
     absolute_weight : float
     counts : dict
         Faces each model learned from (``absolute``, ``relative``).
+    min_neutral : float
+        Of the references the relative model learned from.
     """
 
     absolute: FittedFaceClassifier
@@ -92,6 +146,7 @@ class Learned:
     fused_temperature: float
     absolute_weight: float
     counts: dict[str, int] = field(default_factory=dict)
+    min_neutral: float = 0.0
 
     def absolute_probabilities(self, X: np.ndarray) -> np.ndarray:
         """Calibrated probabilities (n, C) of absolute vectors X (n, d)."""
@@ -114,14 +169,24 @@ def fuse(relative: np.ndarray, absolute: np.ndarray, temperature: float,
     return softmax(log_rel + absolute_weight * log_abs, fused_temperature)
 
 
-def person_references(X: np.ndarray, persons: np.ndarray, min_faces: int
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """Each face's reference (n, d): the median of its person's faces, and which faces (n,)
-    have one (people with at least ``min_faces`` faces)."""
+def person_references(X: np.ndarray, persons: np.ndarray, min_faces: int,
+                      usable: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Each face's reference (n, d): the median of its person's ``usable`` faces (n,) (all by
+    default), and which faces (n,) have one (people with at least ``min_faces`` of them)."""
     persons = np.asarray(persons).astype(str)
-    names, index, counts = np.unique(persons, return_inverse=True, return_counts=True)
+    usable = np.ones(len(persons), bool) if usable is None else np.asarray(usable, bool)
+    names, index = np.unique(persons, return_inverse=True)
+    counts = np.bincount(index, weights=usable.astype(float), minlength=len(names))
     has = counts[index] >= min_faces
-    return poser_references(X, persons, has), has
+    return poser_references(X, persons, has & usable), has
+
+
+def neutral_probability(probabilities: np.ndarray, classes: tuple[str, ...]) -> np.ndarray:
+    """The neutral class's column (n,) of probabilities (n, C) (ones without one: every
+    face may enter a reference)."""
+    if NEUTRAL not in classes:
+        return np.ones(len(probabilities))
+    return np.asarray(probabilities)[:, classes.index(NEUTRAL)]
 
 
 def out_of_fold(fit: Callable[[np.ndarray], FittedFaceClassifier], classes: tuple[str, ...],
@@ -151,37 +216,51 @@ def _temperature(scores: np.ndarray, y: np.ndarray, classes: tuple[str, ...]) ->
     return fit_temperature(scores[known], np.searchsorted(np.array(classes), y[known]))
 
 
+def _biased(model: FittedFaceClassifier, scores: np.ndarray, y: np.ndarray, temperature: float
+            ) -> tuple[FittedFaceClassifier, np.ndarray, float]:
+    """The model and its out-of-fold scores (n, C) offset by the class biases of those scores
+    (in score units: the biases times the temperature), and the temperature refitted."""
+    known = np.isin(y, model.classes)
+    truth = np.searchsorted(np.array(model.classes), y[known])
+    offset = temperature * class_biases(scores[known] / temperature, truth)
+    shifted = replace(model, model=model.model.shifted(offset),
+                      params=model.params | {"class_biases": [round(float(v), 4)
+                                                              for v in offset]})
+    scores = scores + offset
+    return shifted, scores, _temperature(scores, y, model.classes)
+
+
 def learn(X: np.ndarray, y: np.ndarray, persons: np.ndarray, sets: np.ndarray,
           dims: Mapping[str, int], recipe: Recipe = Recipe(),
           note: Callable[[str], None] | None = None) -> Learned:
     """The absolute and relative models of vectors X (n, d) of classes y, people ``persons``
-    and expression sets ``sets`` (module docstring).
-
-    Raises
-    ------
-    ValueError
-        With fewer than two classes.
-    """
+    and expression sets ``sets`` (module docstring); ValueError with fewer than two classes."""
     y = np.asarray(y).astype(str)
     if len(np.unique(y)) < 2:
         raise ValueError(f"two classes or more are needed to learn, got {sorted(set(y))}")
     say = note or (lambda _: None)
-    weight = recipe.weights_of(sets)
+    weight, cells = recipe.weights_of(sets), recipe.absolute_weights(sets, y)
     every = np.ones(len(y), bool)
 
     def absolute(rows: np.ndarray, start: FittedFaceClassifier | None = None
                  ) -> FittedFaceClassifier:
-        return fit_logistic(X[rows], y[rows], dims, C=recipe.C, sample_weight=weight[rows],
+        if recipe.learner == "network":
+            return fit_network(X[rows], y[rows], dims, recipe.hidden, recipe.alpha,
+                               recipe.epochs, sample_weight=cells[rows])
+        return fit_logistic(X[rows], y[rows], dims, C=recipe.C, sample_weight=cells[rows],
                             start=start)
 
-    say(f"the person-independent model, on {len(y)} faces")
+    say(f"the person-independent model ({recipe.learner}), on {len(y)} faces")
     model = absolute(every)
     scores = out_of_fold(lambda rows: absolute(rows, model), model.classes, X, y, persons,
                          recipe.folds)
     t_abs = _temperature(scores, y, model.classes)
-    R, has = person_references(X, persons, recipe.min_reference_faces)
+    if recipe.class_biases:
+        model, scores, t_abs = _biased(model, scores, y, t_abs)
+    R, has = person_references(X, persons, recipe.min_reference_faces, neutral_probability(
+        softmax(scores, t_abs), model.classes) >= recipe.min_neutral)
     learned = Learned(model, None, t_abs, 1.0, 1.0, recipe.absolute_weight,
-                      {"absolute": len(y), "relative": int(has.sum())})
+                      {"absolute": len(y), "relative": int(has.sum())}, recipe.min_neutral)
     if len(np.unique(y[has])) < 2:
         return learned
     D = X - R

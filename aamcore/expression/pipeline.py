@@ -23,8 +23,10 @@ import numpy as np
 from aamcore.expression.analysis import analyse_face, feature_vector
 from aamcore.expression.classifier_file import ExpressionClassifier
 from aamcore.expression.crop import FaceFeatureError, FaceObservation
+from aamcore.expression.learning import neutral_probability
 from aamcore.expression.quality import LEARNING
 from aamcore.expression.reference import NeutralReference
+from aamcore.expression.spec import PipelineSpec
 
 LOST_FRAMES_RESET = 60
 """Frames in a row without a classifiable face after which the reference is forgotten (the
@@ -62,6 +64,13 @@ class ExpressionEstimate:
         return self.label is not None
 
 
+def spec_fill(spec: PipelineSpec) -> int | None:
+    """The appearance length a fit without an appearance is filled to (zeros) under ``spec``,
+    or None where it is not (its features are the appearance alone, or have none)."""
+    blocks = spec.features.blocks
+    return spec.appearance_dim if "appearance" in blocks and len(blocks) > 1 else None
+
+
 class ExpressionPipeline:
     """Classify the faces of one stream.
 
@@ -83,6 +92,9 @@ class ExpressionPipeline:
         self.reference: NeutralReference = self.spec.new_reference()
         self.lost_frames_reset = lost_frames_reset
         self._lost = 0
+        # A fit without an appearance is zeros beside the image's blocks, as in training; an
+        # appearance-only classifier refuses it.
+        self._fill = spec_fill(self.spec)
 
     def reset(self) -> None:
         """Forget the stream's reference (a new stream or another person)."""
@@ -99,8 +111,9 @@ class ExpressionPipeline:
         """The expression of the next frame of the stream.
 
         A face the quality gate refuses gets no label, with the reason.
-        Otherwise, in a relative pipeline, its feature vector enters the
-        stream's reference (a running median); once the reference is ready
+        Otherwise, in a relative pipeline, its feature vector is offered to the
+        stream's reference (a running median of the faces the person-independent model
+        calls neutral enough); once the reference is ready
         ``vector - reference`` is classified, fused with the person-independent
         model's answer, before that the absolute vector by the person-independent
         model alone (without one, the reason is :data:`~aamcore.expression.quality.LEARNING`).
@@ -108,7 +121,7 @@ class ExpressionPipeline:
         spec = self.spec
         try:
             problem, blocks = analyse_face(observation, spec.features, spec.quality,
-                                           spec.template)
+                                           spec.template, appearance_dim=self._fill)
         except FaceFeatureError as exc:
             return self._none(f"no features: {exc}")
         if problem or blocks is None:
@@ -123,16 +136,18 @@ class ExpressionPipeline:
         classifier = self.classifier
         if not spec.relative:
             return self._estimate(classifier.probabilities(vector[None, :])[0], "absolute")
-        self.reference.update(vector)
         absolute = classifier.absolute is not None
+        p_abs = classifier.absolute_probabilities(vector[None, :])[0] if absolute else None
+        self.reference.update(vector, 1.0 if p_abs is None else
+                              float(neutral_probability(p_abs[None, :],
+                                                        classifier.class_names)[0]))
         if self.reference.ready:
             relative = (vector - self.reference.reference())[None, :]
             p = classifier.fused_probabilities(relative, vector[None, :]) if absolute \
                 else classifier.probabilities(relative)
             return self._estimate(p[0], "relative")
-        if absolute:
-            return self._estimate(classifier.absolute_probabilities(vector[None, :])[0],
-                                  "absolute")
+        if p_abs is not None:
+            return self._estimate(p_abs, "absolute")
         return ExpressionEstimate(None, None, f"{LEARNING}: {self.reference.count} of "
                                   f"{self.reference.min_count} samples", self.reference.count)
 

@@ -1,10 +1,13 @@
-"""A face's reference feature vector, learned without labels: a running median.
+"""A face's reference feature vector, an estimate of the person's neutral face: a running
+median of the faces that look neutral.
 
 Expression vectors taken relative to the reference (``vector - reference``)
 remove much of what differs between people. The expression service keeps one
-:class:`NeutralReference` per stream and feeds it every classifiable face;
-the benchmark and the training give each poser the median of all its faces
-(:func:`poser_references`).
+:class:`NeutralReference` per stream and offers it every classifiable face with the
+probability the person-independent model gives it of being neutral; the reference keeps
+only the faces that look neutral enough (``min_neutral``), so that a long smile or cry
+does not become the face the others are measured against. The benchmark and the training
+give each person the median of their faces that look neutral (:func:`poser_references`).
 """
 
 from __future__ import annotations
@@ -30,11 +33,15 @@ class NeutralReference:
         equal; spacing them makes the window span more of the stream).
     min_count : int
         Vectors needed before :attr:`ready` is true.
+    min_neutral : float
+        Smallest probability of being neutral of a vector kept (0: every vector); a vector
+        below it is not offered at all (nor counted for the stride).
     """
 
     window: int | None = None
     stride: int = 1
     min_count: int = 1
+    min_neutral: float = 0.0
     _kept: collections.deque[np.ndarray] = field(init=False, repr=False)
     _seen: int = field(default=0, init=False, repr=False)
     _median: np.ndarray | None = field(default=None, init=False, repr=False)
@@ -46,10 +53,13 @@ class NeutralReference:
             raise ValueError("stride and min_count must be >= 1")
         if self.window is not None and self.min_count > self.window:
             raise ValueError(f"min_count {self.min_count} is more than the window {self.window}")
+        if not 0.0 <= self.min_neutral <= 1.0:
+            raise ValueError(f"min_neutral must be a probability, got {self.min_neutral}")
         self._kept = collections.deque(maxlen=self.window)
 
-    def update(self, features: np.ndarray) -> bool:
-        """Offer one feature vector (d,); True when it was kept.
+    def update(self, features: np.ndarray, neutral: float = 1.0) -> bool:
+        """Offer one feature vector (d,) with its probability of being neutral; True when it
+        was kept.
 
         Raises
         ------
@@ -63,6 +73,8 @@ class NeutralReference:
             )
         if not np.all(np.isfinite(features)):
             raise ValueError("non-finite feature vector")
+        if neutral < self.min_neutral:
+            return False
         keep = self._seen % self.stride == 0
         self._seen += 1
         if keep:
@@ -102,7 +114,8 @@ class NeutralReference:
 
     def to_json(self) -> dict[str, Any]:
         """The settings (not the state) as a JSON-serialisable dict."""
-        return {"window": self.window, "stride": self.stride, "min_count": self.min_count}
+        return {"window": self.window, "stride": self.stride, "min_count": self.min_count,
+                "min_neutral": self.min_neutral}
 
 
 def median_of(X: np.ndarray) -> np.ndarray:

@@ -28,10 +28,13 @@ from aamcore.expression.reference import NeutralReference
 FEATURE_VERSION = 2
 """Bump when the feature computation changes: classifiers of another version are refused."""
 BLOCK_NAMES: tuple[str, ...] = ("hog", "shape", "appearance")
-STREAM_REFERENCE: dict[str, int] = {"window": 120, "stride": 5, "min_count": 10}
-"""The stream's reference: the median of the last 120 kept vectors, one classifiable frame
-in 5 (20 s at 30 fps); used once it holds 10 (from the 46th classifiable frame, 1.5 s at
-30 fps). The relative model learns from each person's median face, what this becomes."""
+STREAM_REFERENCE: dict[str, float] = {"window": 120, "stride": 5, "min_count": 10,
+                                       "min_neutral": 0.5}
+"""The stream's reference: the median of the last 120 kept vectors, one in 5 of the
+classifiable frames the person-independent model calls neutral with probability 0.5 or
+more (20 s of them at 30 fps); used once it holds 10 (from the 46th such frame, 1.5 s at
+30 fps). The relative model learns from the median of each person's faces that look
+neutral, what this becomes."""
 
 
 @dataclass(frozen=True)

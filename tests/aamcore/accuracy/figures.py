@@ -57,6 +57,9 @@ OCCLUDED_FLAGGED = Recorded("share of the covered landmarks flagged", 0.6517, 0.
                             lower_is_better=False)
 VISIBLE_FLAGGED = Recorded("share of the visible landmarks flagged beside an occluder", 0.0335,
                            0.015)
-HELD_OUT_EXPRESSIONS = Recorded("share of the held-out people's faces labelled right", 0.4286,
+# The held-out expressions: 0.4560 with the person-independent network of HOG, shape and
+# appearance (issue 46; main's logistic model of HOG and shape measured 0.4160 with the same
+# test model on that machine, 0.4286 recorded before).
+HELD_OUT_EXPRESSIONS = Recorded("share of the held-out people's faces labelled right", 0.4560,
                                 0.06, lower_is_better=False)
 TRACKED_NME = Recorded("mean NME of the tracked frames of two held-out faces", 0.0552, 0.01)

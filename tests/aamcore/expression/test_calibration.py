@@ -57,3 +57,18 @@ def test_reliability_bins_count_every_face_once() -> None:
     assert sum(n for _, n, _, _ in rows) == 5
     top = rows[-1]
     assert top[0] == "0.9-1.0" and top[1] == 2 and top[3] == 1.0
+
+
+def test_class_biases_win_back_a_class_the_scores_undervalue() -> None:
+    from aamcore.expression.calibration import class_biases, decision_score
+
+    rng = np.random.default_rng(1)
+    truth = rng.integers(0, 3, 600)
+    log_p = rng.normal(0, 1, (600, 3)) + 2.0 * np.eye(3)[truth]
+    log_p[:, 0] -= 2.5  # the first class (neutral, say) is rarely the top score
+    before = decision_score(log_p.argmax(axis=1), truth, 3)
+    offsets = class_biases(log_p, truth)
+    after = (log_p + offsets).argmax(axis=1)
+    assert decision_score(after, truth, 3) > before + 0.1
+    assert np.mean(after[truth == 0] == 0) > 0.6 > np.mean(log_p.argmax(axis=1)[truth == 0] == 0)
+    assert offsets[0] > offsets[1:].max() and abs(offsets.sum()) < 1e-9

@@ -102,6 +102,23 @@ def test_face_classifier_files_round_trip_with_their_template(
     assert loaded.info["n"] == 1 and loaded.info["classifier_params"]["classifier"] == kind
 
 
+def test_a_person_independent_network_is_stored_beside_the_relative_model(
+    five_posers: FeatureSet, tmp_path: Path
+) -> None:
+    from aamcore.expression.network import NetworkModel, fit_network
+
+    X, y, g = five_posers.features, five_posers.labels, five_posers.posers
+    relative = fit_face_classifier(X, y, g, {"hog": X.shape[1]}, classifier="lda")
+    network = fit_network(X, y, {"hog": X.shape[1]}, hidden=8, epochs=5)
+    spec = PipelineSpec(FeatureConfig(blocks=("hog",)), 42, template=unit_face())
+    classifier = ExpressionClassifier.from_face_classifier(relative, spec, FINGERPRINT,
+                                                           absolute=network)
+    loaded = ExpressionClassifier.load(classifier.save(tmp_path / "c"))
+    assert isinstance(loaded.absolute, NetworkModel)
+    np.testing.assert_allclose(loaded.absolute_probabilities(X),
+                               classifier.absolute_probabilities(X))
+
+
 def test_other_format_versions_are_refused(features: Features, tmp_path: Path) -> None:
     X, y = features
     path = _wrapped("svm_dag", X, y).save(tmp_path / "c.npz")
@@ -173,10 +190,15 @@ def test_bad_vectors_and_unfitted_estimators_are_refused(features: Features) -> 
                                             appearance_spec(3))
 
 
-def test_a_pipeline_without_the_appearance_takes_fits_without_one(classifier_path) -> None:
-    # Trackers that compute no AAM appearance publish fits with an empty one.
+def test_the_deployed_pipeline_takes_fits_without_an_appearance(classifier_path) -> None:
+    # A failed fit of a landmark regressor is published without an appearance: its HOG and
+    # shape are classified beside zeros; an appearance of another length is another AAM's.
     classifier = ExpressionClassifier.load(classifier_path)
-    assert "appearance" not in classifier.pipeline.features.blocks
+    spec = classifier.pipeline
+    assert "appearance" in spec.features.blocks and len(spec.features.blocks) > 1
     classifier.check_fit("ibug68", 68, 0)
+    classifier.check_fit("ibug68", 68, spec.appearance_dim)
+    with pytest.raises(AAMMismatchError, match="appearance parameters"):
+        classifier.check_fit("ibug68", 68, spec.appearance_dim + 1)
     with pytest.raises(AAMMismatchError, match="not on imm58 fits"):
         classifier.check_fit("imm58", 58, 0)

@@ -50,6 +50,27 @@ def test_references_are_medians_of_people_with_enough_faces() -> None:
     R, has = person_references(X, np.array(["a", "a", "a", "b", "b"]), 3)
     assert has.tolist() == [True, True, True, False, False]
     np.testing.assert_allclose(R[:3, 0], 3.0)
+    neutral = np.array([True, True, False, True, False])  # 8 smiles: not the reference
+    R, has = person_references(X, np.array(["a", "a", "a", "b", "b"]), 1, neutral)
+    assert has.all() and R[:, 0].tolist() == [2.0, 2.0, 2.0, 10.0, 10.0]
+
+
+def test_a_network_offset_for_people_it_never_saw(five_posers: FeatureSet) -> None:
+    X, y, people = five_posers.features, five_posers.labels, five_posers.posers
+    sets = np.full(len(y), "jaffe")
+    train = people != "KA"
+    recipe = Recipe(folds=2, learner="network", hidden=32, epochs=40, class_biases=True,
+                    min_neutral=0.2, min_reference_faces=1)
+    learned = learn(X[train], y[train], people[train], sets[train], {"hog": X.shape[1]},
+                    recipe)
+    assert learned.absolute.kind == "network" and learned.min_neutral == 0.2
+    assert len(learned.absolute.params["class_biases"]) == 7
+    assert learned.relative is not None and 0 < learned.counts["relative"] <= train.sum()
+    classes = np.array(learned.absolute.classes)
+    fresh = classes[learned.absolute_probabilities(X[~train]).argmax(axis=1)]
+    assert np.mean(fresh == y[~train]) > 2 / 7  # a poser never seen, each face alone
+    with pytest.raises(ValueError, match="learner"):
+        Recipe(learner="forest")
 
 
 def test_the_fused_score_weighs_the_absolute_model() -> None:

@@ -72,6 +72,12 @@ def test_an_appearance_vector_of_another_length_gives_no_expression() -> None:
     assert pipeline.process(obs).label == "NE"  # absolute: no reference to learn
     longer = FaceObservation.from_arrays(obs.image, obs.landmarks, np.zeros(5))
     assert pipeline.process(longer).reason.startswith("wrong feature length: 141")
+    unsampled = FaceObservation.from_arrays(obs.image, obs.landmarks, None, fit_failed=True)
+    assert pipeline.process(unsampled).label == "NE"  # a failed fit's appearance: zeros
+    alone = replace(spec, features=FeatureConfig(blocks=("appearance",)))
+    classifier = ExpressionClassifier("linear", ("NE", "HA"), "model", LinearModel(
+        np.zeros(3), np.ones(3), np.zeros((2, 3)), np.zeros(2)), alone)
+    assert ExpressionPipeline(classifier).process(unsampled).label is None
 
 
 def test_a_stream_that_opens_on_an_expression_is_read_from_its_first_frame() -> None:
@@ -95,3 +101,21 @@ def test_a_stream_that_opens_on_an_expression_is_read_from_its_first_frame() -> 
     for kind in ("NE", "SU", "NE", "SU", "NE"):
         pipeline.process(expression_observation(kind, person))
     assert pipeline.process(expression_observation("SU", person)).label == "SU"
+
+
+def test_the_reference_is_the_neutral_face_not_a_long_smile() -> None:
+    """With ``min_neutral``, only the frames the person-independent model calls neutral enter
+    the reference: a stream that laughs for long keeps no laugh as its neutral face, and once
+    neutral frames came, the relative model alone reads the laugh as a laugh."""
+    made = stream_classifier(min_count=3, absolute=True)
+    spec = replace(made.pipeline, reference=made.pipeline.reference | {"min_neutral": 0.5})
+    pipeline = ExpressionPipeline(replace(made, pipeline=spec, absolute_weight=0.0))
+    person = 0.05
+    laughing = [pipeline.process(expression_observation("HA", person)) for _ in range(8)]
+    assert pipeline.reference.count == 0
+    assert all(e.basis == "absolute" and e.label == "HA" for e in laughing)
+    for _ in range(3):
+        pipeline.process(expression_observation("NE", person))
+    assert pipeline.reference.count == 3
+    later = pipeline.process(expression_observation("HA", person))
+    assert later.basis == "relative" and later.label == "HA"

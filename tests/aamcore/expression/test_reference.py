@@ -22,12 +22,22 @@ def test_neutral_reference_is_a_running_median_with_window_and_stride() -> None:
         ref.update(np.array([np.nan, 0.0]))
     ref.reset()
     assert ref.count == 0 and not ref.ready
-    assert ref.to_json() == {"window": 3, "stride": 2, "min_count": 2}
+    assert ref.to_json() == {"window": 3, "stride": 2, "min_count": 2, "min_neutral": 0.0}
+
+
+def test_a_long_smile_does_not_become_the_neutral_reference() -> None:
+    ref = NeutralReference(window=10, stride=2, min_count=2, min_neutral=0.5)
+    neutral, smile = np.zeros(2), np.array([5.0, 5.0])
+    offered = [(neutral, 0.9)] * 4 + [(smile, 0.1)] * 40 + [(smile + 0.1, 0.6)] * 2
+    kept = [ref.update(v, p) for v, p in offered]
+    assert sum(kept) == 3 and not any(kept[4:44])  # one in two of the neutral-looking faces
+    np.testing.assert_allclose(ref.reference(), [0.0, 0.0])  # median of 0, 0, 5.1
 
 
 @pytest.mark.parametrize("settings", [{"window": 0}, {"stride": 0}, {"window": 3,
-                                                                     "min_count": 4}])
-def test_bad_settings_are_refused(settings: dict[str, int]) -> None:
+                                                                     "min_count": 4},
+                                      {"min_neutral": 1.5}])
+def test_bad_settings_are_refused(settings: dict[str, float]) -> None:
     with pytest.raises(ValueError):
         NeutralReference(**settings)
 

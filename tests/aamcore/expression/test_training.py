@@ -41,7 +41,8 @@ def test_the_cached_classifier_is_the_deployed_pipeline_of_the_model(
     assert classifier.absolute is not None
     assert classifier.absolute_weight == models.RECIPE.absolute_weight
     assert spec.appearance_dim == FittingModel.load(model_path).aam.n_appearance
-    assert classifier.feature_dim == 51 * 36 + 136
+    assert classifier.feature_dim == 51 * 36 + 136 + spec.appearance_dim
+    assert info_of(classifier)["classifier"] == models.RECIPE.learner
     assert classifier.aam_fingerprint == models.model_fingerprint(model_path)
     assert set(classifier.class_names) == set(SEVEN_CLASSES)
     info = classifier.info
@@ -52,12 +53,17 @@ def test_the_cached_classifier_is_the_deployed_pipeline_of_the_model(
     assert 0 < info["samples_relative"] <= info["samples_absolute"] == info["samples"]
 
 
+def info_of(classifier: ExpressionClassifier) -> dict:
+    """The person-independent model's parameters as the file records them."""
+    return classifier.info["absolute_params"]
+
+
 def test_train_deployed_learns_both_models_of_the_training_faces(jaffe: LabelledFaces,
                                                                  model_path: Path) -> None:
     n_appearance = FittingModel.load(model_path).aam.n_appearance
     trained = models.train_deployed(jaffe, n_appearance)
     learned, spec = trained.learned, trained.spec
-    assert trained.n_samples == 213 and spec.feature_dim == 1972 and spec.relative
+    assert trained.n_samples == 213 and spec.feature_dim == 1972 + n_appearance and spec.relative
     assert learned.relative is not None and learned.relative.classes == learned.absolute.classes
     assert set(learned.absolute.classes) == set(SEVEN_CLASSES)
     # Temperatures fitted on held-out posers: the softmax is neither a hard vote nor uniform.

@@ -1,0 +1,151 @@
+"""A small network of face-feature vectors: scikit-learn training, numpy scoring.
+
+The person-independent model must tell a neutral face from a faint expression of a
+stranger, from one frame: a linear score of the HOG, shape and appearance blocks cannot
+bend around the classes as a hidden layer can. :func:`fit_network` trains scikit-learn's
+``MLPClassifier`` (one ReLU layer, Adam, L2 penalty) on block-scaled vectors
+(:class:`~aamcore.expression.face_classifier.BlockScaler`), the classes weighted inversely
+to their frequency as the logistic models' are, and returns :class:`NetworkModel`, a pure
+numpy predictor of raw vectors that the classifier file stores as plain arrays.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from aamcore.expression.face_classifier import BlockScaler, FittedFaceClassifier, LinearModel
+
+NETWORK_ARRAYS = ("mean", "scale", "hidden_coef", "hidden_intercept", "coef", "intercept")
+"""The arrays of a stored :class:`NetworkModel`, by name."""
+
+
+@dataclass(frozen=True, eq=False)
+class NetworkModel:
+    """Scores ``relu(((x - mean) / scale) @ hidden_coef + hidden_intercept) @ coef.T +
+    intercept``.
+
+    Attributes
+    ----------
+    mean, scale : (d,) float64 arrays
+    hidden_coef : (d, h) float64 array
+    hidden_intercept : (h,) float64 array
+    coef : (n_classes, h) float64 array
+    intercept : (n_classes,) float64 array
+    """
+
+    mean: np.ndarray
+    scale: np.ndarray
+    hidden_coef: np.ndarray
+    hidden_intercept: np.ndarray
+    coef: np.ndarray
+    intercept: np.ndarray
+
+    def __post_init__(self) -> None:
+        d, h = self.hidden_coef.shape if self.hidden_coef.ndim == 2 else (-1, -1)
+        if self.mean.shape != (d,) or self.scale.shape != (d,) \
+                or self.hidden_intercept.shape != (h,):
+            raise ValueError(f"mean {self.mean.shape}, scale {self.scale.shape}, hidden "
+                             f"{self.hidden_coef.shape} + {self.hidden_intercept.shape}: need "
+                             "(d,), (d,), (d, h) + (h,)")
+        if self.coef.ndim != 2 or self.coef.shape[1] != h \
+                or self.intercept.shape != (self.coef.shape[0],):
+            raise ValueError(f"output {self.coef.shape} + {self.intercept.shape}: need "
+                             f"(k, {h}) + (k,)")
+        if not np.all(self.scale > 0):
+            raise ValueError("scale must be > 0")
+
+    @property
+    def feature_dim(self) -> int:
+        """Dimension d of the input vectors."""
+        return self.hidden_coef.shape[0]
+
+    @property
+    def n_classes(self) -> int:
+        return self.coef.shape[0]
+
+    def scores(self, X: np.ndarray) -> np.ndarray:
+        """Per-class scores of the rows of X (n, d), shape (n, n_classes)."""
+        Z = (np.asarray(X, np.float64) - self.mean) / self.scale
+        hidden = np.maximum(Z @ self.hidden_coef + self.hidden_intercept, 0.0)
+        return hidden @ self.coef.T + self.intercept
+
+    def shifted(self, offset: np.ndarray) -> NetworkModel:
+        """The same network with ``offset`` (n_classes,) added to every row's scores."""
+        return replace(self, intercept=self.intercept + np.asarray(offset, np.float64))
+
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """The arrays to store, by name."""
+        return {name: getattr(self, name) for name in NETWORK_ARRAYS}
+
+    @classmethod
+    def from_arrays(cls, arrays: Mapping[str, np.ndarray]) -> NetworkModel:
+        """Rebuild from :meth:`to_arrays` output; KeyError or ValueError when inconsistent."""
+        return cls(*(np.asarray(arrays[k], np.float64) for k in NETWORK_ARRAYS))
+
+
+def stored_model(arrays: Mapping[str, np.ndarray]) -> LinearModel | NetworkModel:
+    """The linear model or network of stored arrays (a network's have a hidden layer);
+    KeyError or ValueError when inconsistent."""
+    if set(NETWORK_ARRAYS) <= set(arrays):
+        return NetworkModel.from_arrays(arrays)
+    return LinearModel.from_arrays(arrays)
+
+
+def fit_network(
+    X: np.ndarray,
+    y: np.ndarray,
+    block_dims: Mapping[str, int],
+    hidden: int = 256,
+    alpha: float = 1e-2,
+    epochs: int = 60,
+    seed: int = 0,
+    sample_weight: np.ndarray | None = None,
+) -> FittedFaceClassifier:
+    """A one-hidden-layer network of block-scaled vectors, classes weighted alike.
+
+    Parameters
+    ----------
+    X : (n, d) float array
+    y : (n,) array of str
+    block_dims : mapping str -> int
+        Block names and lengths in vector order (sum d).
+    hidden : int
+        Units of the hidden layer.
+    alpha : float
+        L2 penalty of the weights.
+    epochs : int
+        Passes over the (resampled) rows; the solver stops there, converged or not.
+    seed : int
+        Of the initial weights and the batches: the same data give the same network.
+    sample_weight : (n,) float array, optional
+        Times the class weights.
+    """
+    from sklearn.neural_network import MLPClassifier  # here: serving never imports it
+    from sklearn.utils.class_weight import compute_sample_weight
+
+    X = np.asarray(X, np.float64)
+    y = np.asarray(y).astype(str)
+    scaler = BlockScaler(tuple(block_dims.items())).fit(X)
+    # Each block's variance is 1 / len(blocks) after the scaler: a unit total per block
+    # suits the network's default initialisation.
+    gain = np.sqrt(len(block_dims))
+    weight = compute_sample_weight("balanced", y)
+    if sample_weight is not None:
+        weight = weight * np.asarray(sample_weight, np.float64)
+    net = MLPClassifier((hidden,), alpha=alpha, max_iter=epochs, random_state=seed,
+                        batch_size=128)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # stopping at ``epochs`` is meant
+        net.fit(scaler.transform(X) * gain, y, sample_weight=weight)
+    (w1, w2), (b1, b2) = net.coefs_, net.intercepts_
+    classes = tuple(str(c) for c in net.classes_)
+    if len(classes) == 2:  # one logistic output: the second class's score, as +/- halves
+        w2, b2 = np.hstack([-w2, w2]) / 2.0, np.array([-b2[0], b2[0]]) / 2.0
+    model = NetworkModel(scaler.mean_.copy(), scaler.scale_ / gain, w1, b1, w2.T.copy(), b2)
+    return FittedFaceClassifier(model, classes, "network",
+                                {"classifier": "network", "hidden": hidden, "alpha": alpha,
+                                 "epochs": epochs})
