@@ -49,6 +49,7 @@ from aamcore.fitting.config import FITTER, FitterConfig
 from aamcore.fitting.model import FittingModel
 from aamcore.io.expression_sets import EXPRESSION_SETS, load_expression_set
 from aamcore.io.sample import DatasetError
+from aamcore.model.cache import locked
 from aamcore.progress import note, phase, plan
 
 TRAINING_VERSION = 10
@@ -319,18 +320,25 @@ def classifier_path(model_path: str | Path, algorithm: str = FITTER.algorithm,
     subset = "" if limit is None else f"-limit{limit}"
     path = cache_dir() / (f"expression-{fingerprint}-{algorithm}-{features}{subset}"
                           f"-v{TRAINING_VERSION}.npz")
-    if not path.is_file():
-        note(f"training the {features} expression classifier for the fits of "
-             f"{Path(model_path).name} by {algorithm}, once: it is kept in {path.parent}")
-        path.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            with plan("training the expression classifier", CLASSIFIER_PHASES):
-                classifier = train_classifier(model_path, algorithm, features, limit)
-        except ValueError as exc:  # no classifiable face: nothing to train on
-            if isinstance(exc, DatasetError):
-                raise
-            raise DatasetError(f"no expression classifier for {model_path}: {exc}") from exc
-        tmp = path.with_name(f"{path.stem}.tmp{os.getpid()}.npz")
-        classifier.save(tmp)
-        tmp.replace(path)  # atomic: a concurrent first use never reads half a file
+    if path.is_file():
+        return path
+    with locked(path):  # another process training it: wait, and take what it saved
+        if not path.is_file():
+            _train_into(path, model_path, algorithm, features, limit)
     return path
+
+
+def _train_into(path: Path, model_path: str | Path, algorithm: str, features: str,
+                limit: int | None) -> None:
+    note(f"training the {features} expression classifier for the fits of "
+         f"{Path(model_path).name} by {algorithm}, once: it is kept in {path.parent}")
+    try:
+        with plan("training the expression classifier", CLASSIFIER_PHASES):
+            classifier = train_classifier(model_path, algorithm, features, limit)
+    except ValueError as exc:  # no classifiable face: nothing to train on
+        if isinstance(exc, DatasetError):
+            raise
+        raise DatasetError(f"no expression classifier for {model_path}: {exc}") from exc
+    tmp = path.with_name(f"{path.stem}.tmp{os.getpid()}.npz")
+    classifier.save(tmp)
+    tmp.replace(path)  # atomic: a reader never sees half a file
