@@ -80,18 +80,26 @@ def analyse_face(
         problem, hog = _hog(observation.image, points, config, limits if check else None)
         if problem:
             return problem, None
+    return "", _blocks(config.blocks, hog, shape, points, observation.appearance,
+                       appearance_dim)
+
+
+def _blocks(names: tuple[str, ...], hog: np.ndarray | None, shape: np.ndarray | None,
+            points: np.ndarray, appearance: np.ndarray, appearance_dim: int | None) -> Blocks:
+    """The feature blocks by name: the HOG, the canonical shape (computed from ``points``
+    where the gate gave none), the appearance (zeros where the fit has none)."""
     blocks: Blocks = {}
-    for name in config.blocks:
+    for name in names:
         if name == "hog":
             assert hog is not None
             blocks[name] = hog
         elif name == "shape":
             blocks[name] = (canonical_shape(points) if shape is None else shape).ravel()
-        elif observation.appearance.size == 0 and appearance_dim is not None:
+        elif appearance.size == 0 and appearance_dim is not None:
             blocks[name] = np.zeros(appearance_dim)
         else:
-            blocks[name] = np.asarray(observation.appearance, np.float64).copy()
-    return "", blocks
+            blocks[name] = np.asarray(appearance, np.float64).copy()
+    return blocks
 
 
 def _hog(image: np.ndarray, points: np.ndarray, config: FeatureConfig,
