@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import asdict
 from pathlib import Path
 
 import pytest
@@ -123,13 +124,24 @@ def imm_test(imm_set):
 
 
 @pytest.fixture(scope="session")
-def imm_fit_model_path(imm_set, imm_train, tmp_path_factory) -> Path:
-    """A grey IMM model with everything fitting needs, trained on subjects 01-09."""
-    aam = train_aam(
-        imm_train, imm_set.scheme, TrainConfig(n_pixels=6000, colour=False, shape_variance=0.98)
-    )
-    model = train_fitting_model(aam, imm_train, max_images=25)
-    return model.save(tmp_path_factory.mktemp("fit") / "imm_fit.npz")
+def imm_fit_model_path(imm_dir: Path, imm_set, imm_train) -> Path:
+    """A grey IMM model with everything fitting needs, trained on subjects 01-09; kept in the
+    user cache as the recipe's models are (trained once for every test session and worker
+    that wants it, again when the recipe changes)."""
+    from aamcore.config import cache_dir
+    from aamcore.fitting.training.prepare import BINARY, OCCLUSION, RECIPE
+    from aamcore.model.cache import cache_key, cached_file
+
+    config = TrainConfig(n_pixels=6000, colour=False, shape_variance=0.98)
+    key = cache_key(str(imm_dir), config, {"select": "subjects 01-09", "max_images": 25,
+                                           "prepare": RECIPE, "binary": BINARY.to_json(),
+                                           "occlusion": asdict(OCCLUSION)})
+
+    def build(path: Path) -> Path:
+        aam = train_aam(imm_train, imm_set.scheme, config)
+        return train_fitting_model(aam, imm_train, max_images=25).save(path)
+
+    return cached_file(cache_dir() / f"imm-tests-{key}.npz", build, FittingModel.load)
 
 
 @pytest.fixture(scope="session")
