@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from aamcore.ar.cover import cover_mask, cover_radius
 from aamcore.operators.faces import FacePose
 from aamcore.operators.options import PIPELINE, OverlayOptions
 
@@ -53,7 +54,7 @@ class OverlayOperator:
                 drawn = renderer.render(out, pose.rotation, pose.translation_mm, pose.K)
                 covered = self.covered(pose, out.shape[:2])
                 if covered is not None:
-                    drawn[covered] = out[covered]
+                    np.copyto(drawn, out, where=covered[..., None])
                 out = drawn
         return out
 
@@ -62,8 +63,6 @@ class OverlayOperator:
         its glasses (None: nothing, or ``hide_covered`` off)."""
         if not self.options.hide_covered or pose.covered is None or not len(pose.covered):
             return None
-        from aamcore.ar.cover import cover_mask, cover_radius
-
         return cover_mask(pose.covered, shape, cover_radius(pose.K, pose.translation_mm))
 
     def renderer(self, width: int, height: int) -> Any:
