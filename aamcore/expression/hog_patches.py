@@ -181,13 +181,11 @@ def hog_pair(crop: np.ndarray, points: np.ndarray, config: FeatureConfig
         ``P = len(config.hog_points)``; ``mirrored`` is :func:`hog_block` of the left-right
         flipped crop at the flipped, mirror-numbered landmarks.
     """
-    chosen = list(config.hog_points)
-    n, width = len(chosen), crop.shape[1]
-    own = np.round(points[chosen]).astype(np.int64)
-    partner = points[MIRROR][chosen]
+    n, width = len(config.hog_points), crop.shape[1]
     # the own patches' centres, then the mirror patches' (in the mirror image's columns)
-    cx = np.concatenate([own[:, 0], np.round(width - 1 - partner[:, 0]).astype(np.int64)])
-    cy = np.concatenate([own[:, 1], np.round(partner[:, 1]).astype(np.int64)])
+    centres = points[_pair_rows(config.hog_points)]
+    centres[n:, 0] = width - 1 - centres[n:, 0]
+    cx, cy = np.round(centres).astype(np.int64).T
     ys, xs = _corners(cx, cy, config, crop.shape)
     # column c of the mirror image is column w - 1 - c of the crop: its integral's columns
     # w - x, descending, so that the mirror patches' sums come out negated
@@ -200,6 +198,15 @@ def hog_pair(crop: np.ndarray, points: np.ndarray, config: FeatureConfig
     v = np.concatenate([sums[:n, ..., :bins], sums[n:, ..., bins - 1::-1]])
     v = _hys(v, sums)
     return v[:n].ravel(), v[n:].ravel()
+
+
+@lru_cache(maxsize=8)
+def _pair_rows(chosen: tuple[int, ...]) -> np.ndarray:
+    """The landmarks (2 P,) of the patches, then of their mirror partners
+    (:data:`~aamcore.expression.crop.MIRROR`), made once."""
+    rows = np.concatenate([np.array(chosen, np.intp), MIRROR[list(chosen)].astype(np.intp)])
+    rows.setflags(write=False)
+    return rows
 
 
 def _window(ys: np.ndarray, xs: np.ndarray, shape: tuple[int, ...]
