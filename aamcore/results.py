@@ -19,8 +19,9 @@ AAM's texture residual), 0 where it is not, empty where it was not judged;
 HA happiness, NE neutral, SA sadness, SU surprise) and ``score_<code>`` the probability of
 each class, summing to 1; ``expression_reason`` says why a face has no expression label
 (:data:`EXPRESSION_REASONS`: no face, face too small, face outside the frame, head rolled,
-face covered, face in profile, implausible landmarks, learning the face's reference, ...),
-``reason`` why a frame has no face, a failed fit or an unreliable pose (:data:`REASONS`).
+face covered, face blurred, face in profile, implausible landmarks, learning the face's
+reference, ...), ``reason`` why a frame has no face, a failed fit or an unreliable pose
+(:data:`REASONS`).
 Each reason starts with one of those phrases and goes on with the figures that decided it
 (``"face in profile: turned about 52 degrees (at most 40)"``).
 
@@ -57,6 +58,8 @@ EXPRESSION_REASONS: dict[str, str] = {
     "face outside the frame": "too many landmarks beyond the frame",
     "head rolled": "the eye line tilted further than the classifier learned",
     "face covered": "too many inner landmarks flagged occluded",
+    "face blurred": "too little sharp texture around the eyes, nose and mouth (out of focus, "
+                    "moving, or too few pixels)",
     "face in profile or badly fitted": "the face's texture unlike its mirror image",
     "face in profile": "the head turned further than the classifier learned",
     "implausible landmarks": "a face shape unlike every face the classifier learned from "

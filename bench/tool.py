@@ -28,6 +28,7 @@ BENCHMARKS = (
     "vs-dlib", "vs-mediapipe",
     "detector-tuning", "detection", "facemark", "failure-tests", "smoothing", "tracking",
     "multiface", "no-face", "posit", "pose-e2e", "pose-speed", "pose-yaw", "expression",
+    "expression-degraded",
     "prepare", "first-command", "first-minutes", "gl-warp", "stack", "stack-vs-library",
     "frame-transport", "signing", "faults", "soak", "flood", "attacks", "reliability",
     "deploy",

@@ -12,8 +12,10 @@ with the class, person (``set/person``), set and held-out flag of each face.
 
 from __future__ import annotations
 
+import hashlib
+import json
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -105,10 +107,16 @@ def _with_appearance(part: BenchFaces) -> BenchFaces:
                       part.dims | {"appearance": c.shape[1]})
 
 
+def _gate_key() -> str:
+    """A short hash of the gate's default limits: the kept verdicts are the gate's."""
+    text = json.dumps(asdict(QualityLimits()), sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:8]
+
+
 def _set_faces(model: Path, name: str, config: FitterConfig, say: Callable[[str], None]
                ) -> BenchFaces:
     stem = (f"expression-bench-{model_fingerprint(model)}-{config.algorithm}-{name}"
-            f"-f{FACES_VERSION}-x{FEATURE_VERSION}")
+            f"-f{FACES_VERSION}-x{FEATURE_VERSION}-g{_gate_key()}")
     path = cache_dir() / f"{stem}.npz"
     if path.is_file():
         faces = LabelledFaces.load(path)

@@ -24,7 +24,7 @@ from aamcore.expression.crop import (
     check_landmarks,
 )
 from aamcore.expression.hog_patches import hog_block, hog_pair, patch_symmetry
-from aamcore.expression.quality import landmark_gate, symmetry_problem
+from aamcore.expression.quality import blur_problem, landmark_gate, sharpness, symmetry_problem
 from aamcore.expression.spec import FeatureConfig, QualityLimits
 
 Blocks = dict[str, np.ndarray]
@@ -105,12 +105,16 @@ def _blocks(names: tuple[str, ...], hog: np.ndarray | None, shape: np.ndarray | 
 def _hog(image: np.ndarray, points: np.ndarray, config: FeatureConfig,
          limits: QualityLimits | None) -> tuple[str, np.ndarray]:
     """The HOG block (P * cells^2 * bins,) of the face's canonical crop and, with ``limits``,
-    the gate's verdict on its mirror symmetry (``""``: none checked or it passes)."""
+    the gate's verdict on its sharpness and mirror symmetry (``""``: none checked or it
+    passes; a blurred face's block is empty)."""
     crop, crop_points = aligned_face(image, points, config.crop_size, config.eye_distance,
                                      config.eye_row)
     equalised = cv2.equalizeHist(crop)
     if limits is None:
         return "", hog_block(equalised if config.equalise else crop, crop_points, config)
+    blurred = blur_problem(sharpness(equalised, crop_points), limits)
+    if blurred:
+        return blurred, np.zeros(0)
     own, mirrored = hog_pair(equalised, crop_points, config)
     hog = own if config.equalise else hog_block(crop, crop_points, config)
     symmetry = patch_symmetry(own, mirrored, len(config.hog_points))

@@ -3,14 +3,16 @@
 A face is refused, with a reason of the form ``"<short key>: <details>"``
 (:func:`reason_key` gives the key), when no face was found, its landmarks are
 unusable, it is too small, mostly outside the frame, rolled or turned into
-profile, its canonical shape is unlike the training faces', or
-(:func:`symmetry_problem`) its texture does not match its mirror image. The
+profile, its canonical shape is unlike the training faces', or, from its crop, it is
+blurred (:func:`blur_problem`) or its texture does not match its mirror image
+(:func:`symmetry_problem`). The
 fitter's own failure flag is not a reason: on expressive faces its appearance
 test often fails while the landmarks are right.
 """
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 from aamcore.expression.crop import (
@@ -147,3 +149,24 @@ def symmetry_problem(symmetry: float, limits: QualityLimits = QualityLimits()) -
         return ""
     return (f"face in profile or badly fitted: it matches its mirror image {symmetry:.2f} "
             f"(at least {limits.min_symmetry:g} for a frontal face)")
+
+
+def sharpness(equalised: np.ndarray, points: np.ndarray) -> float:
+    """How sharp a face is: the variance of the Laplacian (grey levels squared) of its
+    equalised canonical crop (S, S) uint8 over the box of the inner landmarks ``points``
+    (68, 2), crop pixels: the texture an expression is read from, whatever the lighting."""
+    inner = points[INNER_SLICE]
+    (x0, y0), (x1, y1) = inner.min(axis=0).tolist(), inner.max(axis=0).tolist()
+    h, w = equalised.shape[:2]
+    x0, y0 = min(max(int(x0), 0), w - 3), min(max(int(y0), 0), h - 3)
+    x1, y1 = max(min(int(x1) + 2, w), x0 + 3), max(min(int(y1) + 2, h), y0 + 3)
+    laplacian = cv2.Laplacian(equalised, cv2.CV_32F)
+    return float(cv2.meanStdDev(laplacian[y0:y1, x0:x1])[1][0, 0] ** 2)
+
+
+def blur_problem(value: float, limits: QualityLimits = QualityLimits()) -> str:
+    """The reason to refuse a face of this :func:`sharpness`, or ``""``."""
+    if value >= limits.min_sharpness:
+        return ""
+    return (f"face blurred: sharpness {value:.0f} (at least {limits.min_sharpness:g}; out of "
+            f"focus, moving, or too few pixels)")

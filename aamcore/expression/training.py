@@ -133,16 +133,19 @@ def gated(faces: LabelledFaces, config: FeatureConfig, limits: QualityLimits,
           train: np.ndarray | None = None, appearance_dim: int | None = None
           ) -> tuple[Observed, np.ndarray, np.ndarray]:
     """The feature blocks of ``faces``, the faces (n,) the quality gate accepts (of ``train``
-    when given), and the gate's shape template (68, 2): the mean canonical shape of the faces
-    that pass the gate's other checks. With ``appearance_dim``, a fit without an appearance
-    has zeros for it (:func:`~aamcore.expression.analysis.analyse_face`).
+    when given; blurred or not), and the gate's shape template (68, 2): the mean canonical
+    shape of the faces that pass the gate's other checks. With ``appearance_dim``, a fit
+    without an appearance has zeros for it (:func:`~aamcore.expression.analysis.analyse_face`).
 
     Raises
     ------
     ValueError
         When no face passes the gate.
     """
-    observed = observe(faces.observations, config, limits, appearance_dim=appearance_dim)
+    # Blurred faces are learned from: the sharpness check guards what is served, not what
+    # is learned (a classifier that has seen a little blur reads a little blur better).
+    observed = observe(faces.observations, config, replace(limits, min_sharpness=0.0),
+                       appearance_dim=appearance_dim)
     ok = observed.ok & (True if train is None else np.asarray(train, bool))
     if not ok.any():
         raise ValueError("no face passes the quality gate")

@@ -76,7 +76,7 @@ class ReliabilityLimits:
 
     def problem(self, R: np.ndarray, T: np.ndarray, quality: FitQuality) -> str:
         """Why the pose ``R`` (3, 3), ``T`` (3,) (mm) is not to be trusted; ``""`` if it is."""
-        if not np.all(np.isfinite(R)) or not np.all(np.isfinite(T)) or T[2] <= 0:
+        if not (np.isfinite(R).all() and np.isfinite(T).all()) or T[2] <= 0:
             return "no valid pose: the head would be behind the camera"
         if float(R[:, 2] @ T) < 0:
             return "the model faces away from the camera: left and right landmarks swapped?"
@@ -95,7 +95,7 @@ class ReliabilityLimits:
         if q.inlier_fraction < self.min_inlier_fraction:
             return (f"too many outlying landmarks: {100 * q.inlier_fraction:.0f} % inliers "
                     f"(limit {100 * self.min_inlier_fraction:.0f} %)")
-        if not np.all(q.angle_sd_deg <= self.max_angle_sd_deg):
+        if not all(sd <= self.max_angle_sd_deg for sd in np.asarray(q.angle_sd_deg).tolist()):
             return (f"poorly determined: predicted angle sd {np.max(q.angle_sd_deg):.1f} deg "
                     f"(limit {self.max_angle_sd_deg:g})")
         if not q.converged:
