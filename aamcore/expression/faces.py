@@ -31,7 +31,7 @@ from aamcore.fitting.result import appearance_of
 from aamcore.fitting.tracker import Tracker
 from aamcore.io.expression_sets import ExpressionSet
 from aamcore.io.sample import DatasetError, read_image
-from aamcore.progress import progress
+from aamcore.progress import note, progress
 
 FACES_VERSION = 1
 """Bump when the fitting of the faces changes: saved fits of another version are refitted."""
@@ -135,11 +135,13 @@ class LabelledFaces:
         return read_image(path, grey=path.suffix.lower() in (".tiff", ".tif"))
 
     def observation(self, i: int) -> FaceObservation:
-        """Face ``i`` as the expression stage sees it."""
+        """Face ``i`` as the expression stage sees it (without landmarks, no image is read:
+        the gate needs none, and an unreadable file has none)."""
         found = not self.no_face[i]
         sampled = found and bool(np.isfinite(self.appearance[i]).all())
         return FaceObservation.from_arrays(
-            self.image(i), self.landmarks[i] if found else None,
+            self.image(i) if found else np.zeros((1, 1), np.uint8),
+            self.landmarks[i] if found else None,
             self.appearance[i] if sampled else None, bool(self.fit_failed[i]),
             str(self.reasons[i]))
 
@@ -178,6 +180,8 @@ class LabelledFaces:
                        f["appearance"], f["fit_failed"], f["reasons"])
 
 
+UNREADABLE = "unreadable image"
+"""The reason of a face whose image file is missing or cannot be decoded (skipped)."""
 FIT_WORKERS = 2
 """Threads that fit faces at once: detection and fitting release the GIL for most of their
 time, so two threads on two cores fit nearly twice as fast."""
@@ -187,12 +191,14 @@ def fit_faces(model: FittingModel, data: ExpressionSet, config: FitterConfig = F
               keep_images: bool = False, select: np.ndarray | None = None,
               workers: int = FIT_WORKERS) -> LabelledFaces:
     """The faces of ``data`` (of ``select`` (n,) when given), each fitted by ``model`` as the
-    stack fits a stream's first frame, by ``workers`` threads with a tracker each.
+    stack fits a stream's first frame, by ``workers`` threads with a tracker each. An image
+    file that is missing or cannot be decoded is skipped: a face without landmarks whose
+    reason (:data:`UNREADABLE`) names it; their count and the first are said.
 
     Raises
     ------
     DatasetError
-        Naming the first image file that is missing or cannot be decoded.
+        When nothing of ``data`` is selected.
     """
     samples = data.samples if select is None else [data.samples[i] for i in
                                                    np.flatnonzero(select)]
@@ -207,12 +213,23 @@ def fit_faces(model: FittingModel, data: ExpressionSet, config: FitterConfig = F
     lock = threading.Lock()
 
     def fit(part: range) -> None:
+        readable: list[int] = []
+
         def read() -> Iterator[np.ndarray]:
             for i in part:
-                images[i] = read_image(samples[i].image_path, grey=grey)
+                try:
+                    images[i] = read_image(samples[i].image_path, grey=grey)
+                except DatasetError as exc:
+                    reasons[i] = f"{UNREADABLE}: {exc}"
+                    with lock:
+                        next(done, None)
+                    continue
+                readable.append(i)
                 yield images[i]
 
-        for i, obs in zip(part, stack_observations(model, read(), config), strict=True):
+        # stack_observations takes one image for each observation it gives
+        for obs in stack_observations(model, read(), config):
+            i = readable[-1]
             if obs.landmarks.size:
                 landmarks[i] = obs.landmarks
                 appearance[i, :obs.appearance.size] = obs.appearance[:k]
@@ -225,10 +242,16 @@ def fit_faces(model: FittingModel, data: ExpressionSet, config: FitterConfig = F
     parts = [range(w, n, workers) for w in range(max(1, min(workers, n)))]
     with ThreadPoolExecutor(len(parts)) as pool:
         for future in [pool.submit(fit, part) for part in parts]:
-            future.result()  # raises the first worker's error (a file that cannot be read)
+            future.result()
     next(done, None)
+    skipped = [str(r) for r in reasons if str(r).startswith(UNREADABLE)]
+    if skipped:
+        note(f"{data.name}: {len(skipped)} of {n} image files skipped, unreadable (the first: "
+             f"{skipped[0][len(UNREADABLE) + 2:]})")
+    if keep_images:  # an unreadable face keeps its place: a frame of one black pixel
+        images = [np.zeros((1, 1), np.uint8) if im is None else im for im in images]
     return LabelledFaces(np.array([str(s.image_path) for s in samples]),
                          np.array([s.label for s in samples]),
                          np.array([s.poser for s in samples]), np.full(n, data.name),
                          landmarks, appearance, failed, reasons.astype(str),
-                         [im for im in images if im is not None] if keep_images else None)
+                         images if keep_images else None)  # type: ignore[arg-type]

@@ -38,7 +38,7 @@ from aamcore.expression.analysis import Observed, observe
 from aamcore.expression.calibration import fit_temperature, held_out_scores
 from aamcore.expression.classifier_file import AAMMismatchError, ExpressionClassifier
 from aamcore.expression.crop import canonical_shape
-from aamcore.expression.faces import LabelledFaces, fit_faces
+from aamcore.expression.faces import UNREADABLE, LabelledFaces, fit_faces
 from aamcore.expression.labels import SEVEN_CLASSES
 from aamcore.expression.learning import Learned, Recipe, learn
 from aamcore.expression.pipeline import spec_fill
@@ -114,12 +114,13 @@ def training_faces(model_path: str | Path, config: FitterConfig = FITTER,
                    sets: Sequence[str] = EXPRESSION_SETS, limit: int | None = None
                    ) -> LabelledFaces:
     """The training faces of ``sets`` fitted by the model in ``model_path`` as the stack fits
-    a stream's first frame (:func:`training_selection` of each).
+    a stream's first frame (:func:`training_selection` of each; an unreadable image file is
+    named, skipped and counted, :func:`~aamcore.expression.faces.fit_faces`).
 
     Raises
     ------
     DatasetError
-        Naming a missing set, an unreadable file, or a set without a face to learn from.
+        Naming a missing set, or a set without a face to learn from.
     """
     model = FittingModel.load(model_path)
     parts = []
@@ -273,6 +274,7 @@ def train_classifier(model_path: str | Path, algorithm: str = FITTER.algorithm,
             "model": Path(model_path).name, "algorithm": algorithm, "features": features,
             "failure_test": config.failure_test, "limit": limit,
             "fit_failed": int(faces.fit_failed.sum()), "no_face": int(faces.no_face.sum()),
+            "unreadable": int(np.char.startswith(faces.reasons.astype(str), UNREADABLE).sum()),
             "seconds_fitting": round(time.perf_counter() - start, 1)}
     fingerprint = model_fingerprint(model_path)
     start = time.perf_counter()

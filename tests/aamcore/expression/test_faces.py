@@ -1,5 +1,6 @@
 """aamcore.expression.faces: labelled faces fitted as the stack fits a stream's first frame,
-kept as arrays, read again when asked; a file that cannot be read is named."""
+kept as arrays, read again when asked; a file that cannot be read is named, skipped and
+counted."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import pytest
 
 from aamcore.expression.faces import LabelledFaces, fit_faces, stack_observations
 from aamcore.expression.labels import SEVEN_CLASSES
+from aamcore.expression.quality import landmark_problem
 from aamcore.fitting.model import FittingModel
 from aamcore.io.expression_sets import ExpressionSet, load_expression_set
 from aamcore.io.jaffe import ExpressionSample
@@ -51,16 +53,30 @@ def test_fits_are_kept_without_images_and_read_again(model_path: Path, data_dir:
     assert len(both.labels) == 8 and both.paths[7] == one.paths[5]
 
 
-def test_an_unreadable_image_is_named(model_path: Path, data_dir: Path, tmp_path: Path
-                                      ) -> None:
+def test_an_unreadable_image_is_named_skipped_and_counted(
+    model_path: Path, data_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     good = tmp_path / "0111b01.jpg"
     shutil.copy(data_dir / "taiwan_expressions" / "0111b01.jpg", good)
     broken = tmp_path / "0111b02.jpg"
     broken.write_bytes(b"not a jpeg")
+    missing = tmp_path / "0111b03.jpg"
     data = ExpressionSet("taiwan_expressions", [ExpressionSample(good, "01", "HA", 1, 1),
-                                                ExpressionSample(broken, "01", "HA", 1, 2)],
+                                                ExpressionSample(broken, "01", "HA", 1, 2),
+                                                ExpressionSample(missing, "01", "HA", 1, 3)],
                          tmp_path)
-    with pytest.raises(DatasetError, match="0111b02.jpg: not a readable image"):
-        fit_faces(FittingModel.load(model_path), data)
+    for keep in (False, True):
+        faces = fit_faces(FittingModel.load(model_path), data, keep_images=keep)
+        assert faces.no_face.tolist() == [False, True, True]
+        assert faces.reasons[1] == f"unreadable image: {broken}: not a readable image"
+        assert faces.reasons[2] == f"unreadable image: {missing}: image file not found"
+        why = [landmark_problem(faces.observation(i)) for i in range(3)]
+        assert why[0] == "" and why[1] == f"no face: {faces.reasons[1]}"
+        assert (faces.images is not None) == keep
+        if keep:
+            assert len(faces.images) == 3 and faces.images[0].shape == (256, 256, 3)
+        said = capsys.readouterr().err
+        assert (f"taiwan_expressions: 2 of 3 image files skipped, unreadable (the first: "
+                f"{broken}: not a readable image)") in said
     with pytest.raises(DatasetError, match="no face of taiwan_expressions"):
-        fit_faces(FittingModel.load(model_path), data, select=np.zeros(2, bool))
+        fit_faces(FittingModel.load(model_path), data, select=np.zeros(3, bool))
