@@ -72,7 +72,7 @@ EXPRESSION_REASONS: dict[str, str] = {
 """Why a face has no expression label: what an ``expression_reason`` starts with."""
 
 REASONS: dict[str, str] = {
-    "no face": "no face found in the frame",
+    "no face": "no face found in the frame (\"the frame is dark\" when too dark to find one)",
     "face too small": "under 8 px between the outer eye corners",
     "no contrast around the landmarks": "a blank or flat image where the face should be",
     "fit-quality score": "the landmarks' learned quality score says the fit failed",

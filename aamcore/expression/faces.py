@@ -217,15 +217,12 @@ def fit_faces(model: FittingModel, data: ExpressionSet, config: FitterConfig = F
 
         def read() -> Iterator[np.ndarray]:
             for i in part:
-                try:
-                    images[i] = read_image(samples[i].image_path, grey=grey)
-                except DatasetError as exc:
-                    reasons[i] = f"{UNREADABLE}: {exc}"
-                    with lock:
-                        next(done, None)
-                    continue
-                readable.append(i)
-                yield images[i]
+                images[i], reasons[i] = _read(samples[i].image_path, grey)
+                if images[i] is not None:
+                    readable.append(i)
+                    yield images[i]
+                with lock:
+                    next(done, None)
 
         # stack_observations takes one image for each observation it gives
         for obs in stack_observations(model, read(), config):
@@ -236,22 +233,34 @@ def fit_faces(model: FittingModel, data: ExpressionSet, config: FitterConfig = F
             failed[i], reasons[i] = obs.fit_failed, obs.fit_reason
             if not keep_images:
                 images[i] = None
-            with lock:
-                next(done, None)
 
     parts = [range(w, n, workers) for w in range(max(1, min(workers, n)))]
     with ThreadPoolExecutor(len(parts)) as pool:
         for future in [pool.submit(fit, part) for part in parts]:
             future.result()
     next(done, None)
-    skipped = [str(r) for r in reasons if str(r).startswith(UNREADABLE)]
-    if skipped:
-        note(f"{data.name}: {len(skipped)} of {n} image files skipped, unreadable (the first: "
-             f"{skipped[0][len(UNREADABLE) + 2:]})")
-    if keep_images:  # an unreadable face keeps its place: a frame of one black pixel
-        images = [np.zeros((1, 1), np.uint8) if im is None else im for im in images]
+    _say_skipped(data.name, reasons)
+    # an unreadable face keeps its place among the images: a frame of one black pixel
+    kept = [np.zeros((1, 1), np.uint8) if im is None else im for im in images]
     return LabelledFaces(np.array([str(s.image_path) for s in samples]),
                          np.array([s.label for s in samples]),
                          np.array([s.poser for s in samples]), np.full(n, data.name),
                          landmarks, appearance, failed, reasons.astype(str),
-                         images if keep_images else None)  # type: ignore[arg-type]
+                         kept if keep_images else None)
+
+
+def _read(path: Path, grey: bool) -> tuple[np.ndarray | None, str]:
+    """The image of ``path``, or None and the reason (:data:`UNREADABLE`) it cannot be read;
+    "no face" until fitted."""
+    try:
+        return read_image(path, grey=grey), "no face"
+    except DatasetError as exc:
+        return None, f"{UNREADABLE}: {exc}"
+
+
+def _say_skipped(name: str, reasons: np.ndarray) -> None:
+    """One line of how many of a set's image files were skipped, unreadable, and the first."""
+    skipped = [str(r) for r in reasons if str(r).startswith(UNREADABLE)]
+    if skipped:
+        note(f"{name}: {len(skipped)} of {len(reasons)} image files skipped, unreadable (the "
+             f"first: {skipped[0][len(UNREADABLE) + 2:]})")

@@ -51,7 +51,7 @@ def deviation_of_canonical(shape: np.ndarray, template: np.ndarray) -> float:
 
 def _no_face(observation: FaceObservation) -> str:
     why = observation.fit_reason
-    return NO_FACE if not why or why == NO_FACE else f"{NO_FACE}: {why}"
+    return NO_FACE if not why else why if why.startswith(NO_FACE) else f"{NO_FACE}: {why}"
 
 
 def _placement_problem(points: np.ndarray, image_shape: tuple[int, ...],

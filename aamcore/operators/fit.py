@@ -8,13 +8,14 @@ from dataclasses import replace
 
 import numpy as np
 
+from aamcore.detection.exposure import darkness
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.model import FittingModel
 from aamcore.fitting.multi import MultiTracker
 from aamcore.fitting.tracker import FaceDetector
 from aamcore.fitting.warps import FitterWarp
-from aamcore.operators.faces import NOBODY, FaceFit, FrameRef
+from aamcore.operators.faces import NO_FACE, NOBODY, FaceFit, FrameRef
 from aamcore.operators.options import PIPELINE, FitOptions
 from aamcore.operators.per_face import PerFace
 from aamcore.smoothing import LANDMARKS, LandmarkSmoother
@@ -75,7 +76,12 @@ class FitOperator:
         tracked, failed = self.tracker.track(image)
         self.warp_path = self.warp.take_path()
         found = [(face.face_id, face.fit) for face in tracked] or [(NOBODY, failed)]
-        return [self._smoothed(face_id, fit, frame) for face_id, fit in found]
+        fits = [self._smoothed(face_id, fit, frame) for face_id, fit in found]
+        if failed is None and not tracked:
+            dark = darkness(image)
+            if dark:
+                fits = [replace(fits[0], reason=f"{NO_FACE}: {dark}")]
+        return fits
 
     def _smoothed(self, face_id: int, fit: object, frame: FrameRef) -> FaceFit:
         smoother = self.faces.of(face_id, frame.index)

@@ -173,7 +173,7 @@ def test_each_face_of_a_frame_gets_its_own_result_pose_and_expression(
         sides = sorted(r.landmarks[:, 0].mean() > width for r in faces)
         assert sides == [False, True]
     assert len({tuple(r.face_id for r in faces) for faces in two}) == 1
-    blank = tracker.process_faces(np.zeros((360, 1280, 3), np.uint8))
+    blank = tracker.process_faces(np.full((360, 1280, 3), 90, np.uint8))
     assert len(blank) == 1 and blank[0].face_id == -1 and not blank[0].success
     assert blank[0].reason == "no face" and json.loads(json.dumps(blank[0].to_dict()))[
         "face_id"] == -1
