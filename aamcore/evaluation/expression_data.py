@@ -15,14 +15,17 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from aamcore.config import cache_dir
 from aamcore.expression.analysis import observe
+from aamcore.expression.crop import aligned_face
 from aamcore.expression.faces import FACES_VERSION, LabelledFaces, fit_faces
+from aamcore.expression.quality import BLURRED, PROFILE_OR_BAD, blur_problem, sharpness
 from aamcore.expression.spec import FEATURE_VERSION, QualityLimits
 from aamcore.expression.training import FEATURES, model_fingerprint
 from aamcore.fitting.config import FITTER, FitterConfig
@@ -38,7 +41,8 @@ class BenchFaces:
     ----------
     faces : LabelledFaces
     X : (n, d) float64 array
-        Deployed feature vectors (zero where the gate refused the face).
+        Deployed feature vectors (zero where the gate refused the face, but for blur: a
+        blurred face is learned from, as the deployed training does).
     problems : (n,) str array
         The gate's verdict without a shape template (``""``: classifiable).
     dims : dict
@@ -70,6 +74,12 @@ class BenchFaces:
         return self.problems == ""
 
     @property
+    def learnable(self) -> np.ndarray:
+        """Faces (n,) a recipe may learn from: those the gate accepts and the blurred ones
+        (:func:`~aamcore.expression.training.gated`)."""
+        return self.ok | np.char.startswith(self.problems.astype(str), BLURRED)
+
+    @property
     def held(self) -> np.ndarray:
         """Faces (n,) of the held-out people (:mod:`aamcore.io.expression_sets`)."""
         from aamcore.io.expression_sets import is_held_out
@@ -91,6 +101,8 @@ class BenchFaces:
                           self.dims)
 
 
+BENCH_VERSION = 2
+"""Bump when what the cache keeps changes (2: blurred faces' features kept, to learn from)."""
 IMAGE_FEATURES = FEATURES.with_blocks(tuple(b for b in FEATURES.blocks if b != "appearance"))
 """The deployed blocks the cache keeps: all but the appearance, which comes last."""
 
@@ -101,10 +113,25 @@ def _with_appearance(part: BenchFaces) -> BenchFaces:
     leaves refused rows)."""
     if "appearance" not in FEATURES.blocks:
         return part
-    c = np.where(part.ok[:, None], np.nan_to_num(part.faces.appearance), 0.0)
+    c = np.where(part.learnable[:, None], np.nan_to_num(part.faces.appearance), 0.0)
     c = c.astype(np.float32).astype(np.float64)  # as the bench keeps the other blocks
     return BenchFaces(part.faces, np.hstack([part.X, c]), part.problems,
                       part.dims | {"appearance": c.shape[1]})
+
+
+def _with_blur(faces: LabelledFaces, problems: np.ndarray, limits: QualityLimits
+               ) -> np.ndarray:
+    """The served gate's verdicts (n,) str: ``problems`` (n,) of the gate without its blur
+    check, a face that passed it, or failed only the mirror symmetry checked after the blur,
+    refused as blurred where it is."""
+    config = IMAGE_FEATURES
+    for i in np.flatnonzero([p == "" or str(p).startswith(PROFILE_OR_BAD) for p in problems]):
+        obs = faces.observation(int(i))
+        crop, points = aligned_face(obs.image, obs.landmarks, config.crop_size,
+                                    config.eye_distance, config.eye_row)
+        problems[i] = blur_problem(sharpness(cv2.equalizeHist(crop), points), limits) \
+            or problems[i]
+    return problems.astype(str)
 
 
 def _gate_key() -> str:
@@ -116,7 +143,7 @@ def _gate_key() -> str:
 def _set_faces(model: Path, name: str, config: FitterConfig, say: Callable[[str], None]
                ) -> BenchFaces:
     stem = (f"expression-bench-{model_fingerprint(model)}-{config.algorithm}-{name}"
-            f"-f{FACES_VERSION}-x{FEATURE_VERSION}-g{_gate_key()}")
+            f"-f{FACES_VERSION}-x{FEATURE_VERSION}-g{_gate_key()}-b{BENCH_VERSION}")
     path = cache_dir() / f"{stem}.npz"
     if path.is_file():
         faces = LabelledFaces.load(path)
@@ -128,9 +155,10 @@ def _set_faces(model: Path, name: str, config: FitterConfig, say: Callable[[str]
                                                                      strict=True)})
     say(f"fitting every face of {name} once (kept in {path.parent})")
     faces = fit_faces(FittingModel.load(model), load_expression_set(name), config)
-    observed = observe(faces.observations, IMAGE_FEATURES, QualityLimits())
+    limits = QualityLimits()
+    observed = observe(faces.observations, IMAGE_FEATURES, replace(limits, min_sharpness=0.0))
     X, dims = observed.vectors(IMAGE_FEATURES.blocks), observed.dims(IMAGE_FEATURES.blocks)
-    problems = np.array(observed.problems)
+    problems = _with_blur(faces, np.array(observed.problems, dtype=object), limits)
     tmp = path.with_name(f"{stem}.tmp.npz")
     faces.save(tmp)
     with np.load(tmp, allow_pickle=False) as f:

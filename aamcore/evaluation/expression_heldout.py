@@ -57,10 +57,11 @@ class Table:
     notes: list[str] = field(default_factory=list)
 
 
-def gate(bench: BenchFaces, template: np.ndarray, limits: QualityLimits = QualityLimits()
-         ) -> np.ndarray:
-    """Faces (n,) the whole gate accepts: the gate's other checks, then the shape template."""
-    ok = bench.ok.copy()
+def gate(bench: BenchFaces, template: np.ndarray, limits: QualityLimits = QualityLimits(),
+         learning: bool = False) -> np.ndarray:
+    """Faces (n,) the whole gate accepts: the gate's other checks, then the shape template
+    (``learning``: those a recipe learns from, blurred or not)."""
+    ok = (bench.learnable if learning else bench.ok).copy()
     for i in np.flatnonzero(ok):
         ok[i] = shape_deviation(bench.faces.landmarks[i], template) <= limits.max_shape_deviation
     return ok
@@ -99,10 +100,10 @@ def fold_models(bench: BenchFaces, train: np.ndarray, recipe: Recipe
                 ) -> tuple[Learned, np.ndarray]:
     """The recipe learned from the faces ``train`` (n,) the gate accepts, and the gate's
     shape template made of them."""
-    ok = bench.ok & train
+    ok = bench.learnable & train
     template = np.mean([canonical_shape(bench.faces.landmarks[i]) for i in np.flatnonzero(ok)],
                        axis=0)
-    ok &= gate(bench, template)
+    ok &= gate(bench, template, learning=True)
     with threadpool_limits(limits=1):
         learned = learn(bench.X[ok], bench.labels[ok], bench.persons[ok], bench.sets[ok],
                         bench.dims, recipe)

@@ -65,10 +65,10 @@ def _absolute_figures(bench: BenchFaces, recipe: Recipe, folds: list[np.ndarray]
     training = ~bench.held
     predicted = np.full(len(bench.labels), "--", dtype=object)
     for valid in folds:
-        train = training & ~valid & bench.ok
+        train = training & ~valid & bench.learnable
         template = np.mean([canonical_shape(bench.faces.landmarks[i])
                             for i in np.flatnonzero(train)], axis=0)
-        train &= gate(bench, template)
+        train &= gate(bench, template, learning=True)
         with threadpool_limits(limits=1):
             model = fit_logistic(bench.X[train], bench.labels[train], bench.dims, C=recipe.C,
                                  sample_weight=recipe.weights_of(bench.sets[train]))

@@ -27,6 +27,8 @@ from aamcore.expression.crop import (
 from aamcore.expression.spec import QualityLimits
 
 NO_FACE = "no face"
+BLURRED = "face blurred"
+PROFILE_OR_BAD = "face in profile or badly fitted"
 LEARNING = "learning the face's reference"
 """The reason of a classifiable face while the stream's reference is too young."""
 
@@ -147,7 +149,7 @@ def symmetry_problem(symmetry: float, limits: QualityLimits = QualityLimits()) -
     """The reason to refuse a face of this mirror symmetry, or ``""``."""
     if symmetry >= limits.min_symmetry:
         return ""
-    return (f"face in profile or badly fitted: it matches its mirror image {symmetry:.2f} "
+    return (f"{PROFILE_OR_BAD}: it matches its mirror image {symmetry:.2f} "
             f"(at least {limits.min_symmetry:g} for a frontal face)")
 
 
@@ -168,5 +170,5 @@ def blur_problem(value: float, limits: QualityLimits = QualityLimits()) -> str:
     """The reason to refuse a face of this :func:`sharpness`, or ``""``."""
     if value >= limits.min_sharpness:
         return ""
-    return (f"face blurred: sharpness {value:.0f} (at least {limits.min_sharpness:g}; out of "
+    return (f"{BLURRED}: sharpness {value:.0f} (at least {limits.min_sharpness:g}; out of "
             f"focus, moving, or too few pixels)")
