@@ -25,7 +25,7 @@ from aamcore.config import cache_dir
 from aamcore.expression.analysis import observe
 from aamcore.expression.crop import aligned_face
 from aamcore.expression.faces import FACES_VERSION, LabelledFaces, fit_faces
-from aamcore.expression.quality import BLURRED, PROFILE_OR_BAD, blur_problem, sharpness
+from aamcore.expression.quality import BLURRED, blur_problem, sharpness
 from aamcore.expression.spec import FEATURE_VERSION, QualityLimits
 from aamcore.expression.training import FEATURES, model_fingerprint
 from aamcore.fitting.config import FITTER, FitterConfig
@@ -101,7 +101,7 @@ class BenchFaces:
                           self.dims)
 
 
-BENCH_VERSION = 2
+BENCH_VERSION = 3
 """Bump when what the cache keeps changes (2: blurred faces' features kept, to learn from)."""
 IMAGE_FEATURES = FEATURES.with_blocks(tuple(b for b in FEATURES.blocks if b != "appearance"))
 """The deployed blocks the cache keeps: all but the appearance, which comes last."""
@@ -122,10 +122,11 @@ def _with_appearance(part: BenchFaces) -> BenchFaces:
 def _with_blur(faces: LabelledFaces, problems: np.ndarray, limits: QualityLimits
                ) -> np.ndarray:
     """The served gate's verdicts (n,) str: ``problems`` (n,) of the gate without its blur
-    check, a face that passed it, or failed only the mirror symmetry checked after the blur,
-    refused as blurred where it is."""
+    check, a face that passed it refused as blurred where it is (a face refused for its
+    mirror symmetry keeps that reason, as the training refuses it; served, a blurred one is
+    called blurred first)."""
     config = IMAGE_FEATURES
-    for i in np.flatnonzero([p == "" or str(p).startswith(PROFILE_OR_BAD) for p in problems]):
+    for i in np.flatnonzero(problems == ""):
         obs = faces.observation(int(i))
         crop, points = aligned_face(obs.image, obs.landmarks, config.crop_size,
                                     config.eye_distance, config.eye_row)

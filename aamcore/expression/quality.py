@@ -28,7 +28,6 @@ from aamcore.expression.spec import QualityLimits
 
 NO_FACE = "no face"
 BLURRED = "face blurred"
-PROFILE_OR_BAD = "face in profile or badly fitted"
 LEARNING = "learning the face's reference"
 """The reason of a classifiable face while the stream's reference is too young."""
 
@@ -149,7 +148,7 @@ def symmetry_problem(symmetry: float, limits: QualityLimits = QualityLimits()) -
     """The reason to refuse a face of this mirror symmetry, or ``""``."""
     if symmetry >= limits.min_symmetry:
         return ""
-    return (f"{PROFILE_OR_BAD}: it matches its mirror image {symmetry:.2f} "
+    return (f"face in profile or badly fitted: it matches its mirror image {symmetry:.2f} "
             f"(at least {limits.min_symmetry:g} for a frontal face)")
 
 
