@@ -152,7 +152,7 @@ class AppearanceSampler:
         else:
             g = box.reshape(-1, self.channels)[self.box.inside].ravel()
             box = box.mean(axis=2)
-        shift = float(g.mean())
+        shift = float(np.add.reduce(g) / g.size)  # g.mean()'s arithmetic, float32
         g -= shift
         std = float(np.sqrt(g @ g / g.size))
         scale = 1.0 / std if std > 1e-6 else 1.0

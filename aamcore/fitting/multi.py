@@ -24,6 +24,7 @@ from aamcore.fitting.result import FitResult
 from aamcore.fitting.search import SearchSchedule
 from aamcore.fitting.tracker import FaceDetector, Refit, Tracker, new_size, turn_for_search
 from aamcore.fitting.upright import mapped, roll_of, rotated_view
+from aamcore.model.similarity import centroid
 
 __all__ = ["MultiTracker", "NewFaces", "TrackedFace"]
 
@@ -386,4 +387,4 @@ class MultiTracker:
 def _step(before: FitResult, after: FitResult) -> float:
     """How far a face moved between two fits, in its widths."""
     width = max(float(np.ptp(before.points[:, 0])), 1.0)
-    return float(np.linalg.norm(after.points.mean(axis=0) - before.points.mean(axis=0)) / width)
+    return float(np.linalg.norm(centroid(after.points) - centroid(before.points)) / width)

@@ -13,6 +13,7 @@ from aamcore.fitting.fitter import Fitter
 from aamcore.fitting.result import FitResult
 from aamcore.fitting.search import SearchSchedule
 from aamcore.fitting.upright import mapped, roll_of, rotated_view
+from aamcore.model.similarity import centroid
 
 __all__ = ["DEFAULT_REFIT", "NEVER", "FaceDetector", "Refit", "Tracker", "fit_upright"]
 
@@ -152,7 +153,7 @@ class Tracker:
         policy = self.refit
         self._since += 1
         if tracked.ok:
-            step = np.linalg.norm(tracked.points.mean(axis=0) - last.points.mean(axis=0))
+            step = np.linalg.norm(centroid(tracked.points) - centroid(last.points))
             due = ((policy.every > 0 and self._since >= policy.every)
                    or tracked.score > policy.score
                    or tracked.disagreement > policy.disagreement
@@ -237,5 +238,5 @@ def fit_upright(fitter: Fitter, image: np.ndarray, shape: np.ndarray) -> FitResu
 def _moving(before: FitResult, last: FitResult) -> bool:
     """Whether the face moved more than :data:`MOVING` of its width from ``before`` to
     ``last``."""
-    step = np.linalg.norm(last.points.mean(axis=0) - before.points.mean(axis=0))
+    step = np.linalg.norm(centroid(last.points) - centroid(before.points))
     return bool(step > MOVING * np.ptp(last.points[:, 0]))

@@ -15,6 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 
 
+def centroid(points: np.ndarray) -> np.ndarray:
+    """The mean (2,) of ``points`` (N, 2): :func:`numpy.mean`'s arithmetic (a sum, then a
+    division by the count), without its overhead (a few microseconds a call, a dozen calls a
+    tracked frame)."""
+    return np.add.reduce(points, axis=0) / len(points)
+
+
 @dataclass(frozen=True)
 class Similarity:
     """A 2D similarity ``x -> [[a, -b], [b, a]] x + (tx, ty)``.
@@ -166,6 +173,6 @@ class Placement:
     def onto(self, points: np.ndarray) -> Similarity:
         """The least-squares similarity placing the reference on ``points`` (N, 2)."""
         a, b = self.ab(points).tolist()
-        cx, cy = (np.asarray(points, np.float64).mean(axis=0)
+        cx, cy = (centroid(np.asarray(points, np.float64))
                   - np.array([[a, -b], [b, a]]) @ self.centroid).tolist()
         return Similarity(a, b, cx, cy)

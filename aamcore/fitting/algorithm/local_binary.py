@@ -36,7 +36,7 @@ from aamcore.fitting.appearance import GreyRegion
 from aamcore.fitting.learned import BinaryCascade
 from aamcore.fitting.result import LandmarkFit
 from aamcore.model.aam import AAM
-from aamcore.model.similarity import Placement, Similarity
+from aamcore.model.similarity import Placement, Similarity, centroid
 
 if TYPE_CHECKING:
     from aamcore.fitting.model import FittingModel
@@ -242,7 +242,7 @@ class LocalBinary:
         """The cascade's mean shape placed by the least-squares similarity on ``shape``
         (N, 2): where the restart stages start."""
         a, b = self._ab(shape)
-        return self._mean @ np.array([[a, b], [-b, a]]) + shape.mean(axis=0)
+        return self._mean @ np.array([[a, b], [-b, a]]) + centroid(shape)
 
     def score(self, image: np.ndarray, points: np.ndarray) -> float:
         """Quality score of landmarks ``points`` (N, 2): the predicted log NME (high: poor fit
@@ -284,7 +284,7 @@ class LocalBinary:
     def project(self, shape: np.ndarray) -> np.ndarray:
         """``shape`` (N, 2) projected onto the shape model, parameters limited to 3 sd."""
         a, b = self._ab(shape)
-        centre = shape.mean(axis=0)
+        centre = centroid(shape)
         s2 = a * a + b * b
         model = (shape - centre) @ np.array([[a / s2, -b / s2], [b / s2, a / s2]])
         params = model.ravel() @ self._modes
