@@ -19,8 +19,9 @@ tracker produces them rather than as fixed points of the face:
   point from pulling the pose.
 
 The pose is found by iteratively reweighted Gauss-Newton from POSIT's answer on
-the inner points, re-matching the outline and re-predicting visibility at
-each step. The result carries a predicted standard deviation of each angle
+the inner points (when tracking, from the face's previous pose: one step where the
+face moved by less than a degree), re-matching the outline and re-predicting
+visibility at each step. The result carries a predicted standard deviation of each angle
 (from the Gauss-Newton normal matrix and the residual scale) and is flagged
 unreliable, with the reason, by :class:`aamcore.pose.reliability.ReliabilityLimits`.
 """
