@@ -8,6 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from aamcore.annotate.draw import FaceDrawing
+from aamcore.ar.cover import covered_points
 from aamcore.face_result import FaceResult
 from aamcore.io.landmarks import scheme_for
 from aamcore.operators.faces import FacePose
@@ -42,7 +43,7 @@ class Annotator:
         if image.ndim == 2:
             image = np.repeat(image[:, :, None], 3, axis=2)
         poses = [FacePose(f.face_id, f.rotation, f.translation_mm, K=K, reliable=True,
-                          covered=_covered(f))
+                          covered=covered_points(f.landmarks, f.occluded))
                  for f in faces if f.pose_reliable and f.rotation is not None]
         if poses and K is not None and self.glasses and self._can_draw(image):
             image = self.overlay(image, poses)
@@ -70,11 +71,3 @@ class Annotator:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _covered(face: FaceResult) -> np.ndarray | None:
-    """The landmarks (k, 2) of ``face`` flagged occluded (None without flags for them)."""
-    flags = face.occluded
-    if flags is None or len(flags) != len(face.landmarks):
-        return None
-    return np.asarray(face.landmarks, np.float64)[np.asarray(flags, bool)]

@@ -22,6 +22,14 @@ MIN_NEIGHBOURS = 2
 hide anything."""
 
 
+def covered_points(points: np.ndarray, flags: np.ndarray | None) -> np.ndarray | None:
+    """The landmarks (k, 2) among ``points`` (N, 2) that ``flags`` (N,) marks occluded; None
+    without flags for them (none given, or of another length)."""
+    if flags is None or len(flags) != len(points):
+        return None
+    return np.asarray(points, np.float64)[np.asarray(flags, bool)]
+
+
 def cover_radius(K: np.ndarray, translation_mm: np.ndarray, mm: float = COVER_MM) -> float:
     """The band's radius in pixels for a head at ``translation_mm`` (3,) seen through ``K``
     (3, 3): ``mm`` at the head's depth."""

@@ -5,8 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import numpy as np
-
+from aamcore.ar.cover import covered_points
 from aamcore.operators.faces import NO_FACE, FaceFit, FacePose, FrameRef
 from aamcore.operators.options import PIPELINE, PoseOptions
 from aamcore.operators.per_face import FORGET_FRAMES, PerFace
@@ -74,8 +73,7 @@ def _face_pose(face: FaceFit, pose: HeadPose, camera: str) -> FacePose:
     est = pose.estimate
     reason = f"fit failed: {face.reason}" if face.failed else pose.reason
     roll, pitch, yaw = est.rpy
-    covered = (None if face.failed or face.occluded is None
-               else np.asarray(face.points, np.float64)[np.asarray(face.occluded, bool)])
+    covered = None if face.failed else covered_points(face.points, face.occluded)
     return FacePose(face.face_id, est.R, est.T, (float(roll), float(pitch), float(yaw)),
                     pose.camera.K, not reason, reason, int(est.iterations), pose.angle_sd_deg,
                     camera, covered)

@@ -8,7 +8,7 @@ import moderngl
 import numpy as np
 import pytest
 
-from aamcore.ar.cover import COVER_MM, cover_mask, cover_radius
+from aamcore.ar.cover import COVER_MM, cover_mask, cover_radius, covered_points
 from aamcore.ar.projection import project_points
 from aamcore.operators.faces import FacePose
 from aamcore.operators.options import OverlayOptions
@@ -23,6 +23,15 @@ LANDMARKS = project_points(HEAD, np.eye(3), T, K)
 """The head model's 68 landmarks seen frontally at 600 mm: where a fit would put them."""
 RIGHT_EYE = np.r_[17:22, 36:42]
 """The right brow and eye (iBUG numbering): what a hand over that eye covers."""
+
+
+def test_the_covered_points_are_the_flagged_ones_and_only_with_flags_for_them() -> None:
+    points = np.arange(10.0).reshape(5, 2)
+    flags = np.array([True, False, False, True, False])
+    np.testing.assert_array_equal(covered_points(points, flags), points[[0, 3]])
+    assert covered_points(points, None) is None
+    assert covered_points(points, np.ones(4, bool)) is None
+    assert covered_points(points, np.zeros(5, bool)).shape == (0, 2)
 
 
 def test_the_band_is_the_millimetres_at_the_head_s_depth() -> None:
