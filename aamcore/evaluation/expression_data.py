@@ -15,17 +15,14 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from aamcore.config import cache_dir
 from aamcore.expression.analysis import observe
-from aamcore.expression.crop import aligned_face
 from aamcore.expression.faces import FACES_VERSION, LabelledFaces, fit_faces
-from aamcore.expression.quality import BLURRED, blur_problem, sharpness
 from aamcore.expression.spec import FEATURE_VERSION, QualityLimits
 from aamcore.expression.training import FEATURES, model_fingerprint
 from aamcore.fitting.config import FITTER, FitterConfig
@@ -41,18 +38,22 @@ class BenchFaces:
     ----------
     faces : LabelledFaces
     X : (n, d) float64 array
-        Deployed feature vectors (zero where the gate refused the face, but for blur: a
-        blurred face is learned from, as the deployed training does).
+        Deployed feature vectors (zero where the gate refused the face, but for the
+        :attr:`learnable` ones).
     problems : (n,) str array
         The gate's verdict without a shape template (``""``: classifiable).
     dims : dict
         Feature block lengths.
+    learnable : (n,) bool array
+        Faces a recipe may learn from: those the gate accepts and those it refuses only as
+        blurred, as the deployed training (:func:`~aamcore.expression.training.gated`).
     """
 
     faces: LabelledFaces
     X: np.ndarray
     problems: np.ndarray
     dims: dict[str, int]
+    learnable: np.ndarray
 
     @property
     def labels(self) -> np.ndarray:
@@ -74,12 +75,6 @@ class BenchFaces:
         return self.problems == ""
 
     @property
-    def learnable(self) -> np.ndarray:
-        """Faces (n,) a recipe may learn from: those the gate accepts and the blurred ones
-        (:func:`~aamcore.expression.training.gated`)."""
-        return self.ok | np.char.startswith(self.problems.astype(str), BLURRED)
-
-    @property
     def held(self) -> np.ndarray:
         """Faces (n,) of the held-out people (:mod:`aamcore.io.expression_sets`)."""
         from aamcore.io.expression_sets import is_held_out
@@ -93,16 +88,17 @@ class BenchFaces:
         faces = self.faces.subset(np.arange(len(self.labels)))
         faces.posers = np.char.add(np.char.add(faces.posers.astype(str), "#"),
                                    faces.labels.astype(str))
-        return BenchFaces(faces, self.X, self.problems, self.dims)
+        return BenchFaces(faces, self.X, self.problems, self.dims, self.learnable)
 
     def subset(self, keep: np.ndarray) -> BenchFaces:
         index = np.flatnonzero(keep) if np.asarray(keep).dtype == bool else np.asarray(keep)
         return BenchFaces(self.faces.subset(index), self.X[index], self.problems[index],
-                          self.dims)
+                          self.dims, self.learnable[index])
 
 
-BENCH_VERSION = 3
-"""Bump when what the cache keeps changes (2: blurred faces' features kept, to learn from)."""
+BENCH_VERSION = 4
+"""Bump when what the cache keeps changes (4: which faces a recipe may learn from, with their
+features: blurred ones too)."""
 IMAGE_FEATURES = FEATURES.with_blocks(tuple(b for b in FEATURES.blocks if b != "appearance"))
 """The deployed blocks the cache keeps: all but the appearance, which comes last."""
 
@@ -116,23 +112,7 @@ def _with_appearance(part: BenchFaces) -> BenchFaces:
     c = np.where(part.learnable[:, None], np.nan_to_num(part.faces.appearance), 0.0)
     c = c.astype(np.float32).astype(np.float64)  # as the bench keeps the other blocks
     return BenchFaces(part.faces, np.hstack([part.X, c]), part.problems,
-                      part.dims | {"appearance": c.shape[1]})
-
-
-def _with_blur(faces: LabelledFaces, problems: np.ndarray, limits: QualityLimits
-               ) -> np.ndarray:
-    """The served gate's verdicts (n,) str: ``problems`` (n,) of the gate without its blur
-    check, a face that passed it refused as blurred where it is (a face refused for its
-    mirror symmetry keeps that reason, as the training refuses it; served, a blurred one is
-    called blurred first)."""
-    config = IMAGE_FEATURES
-    for i in np.flatnonzero(problems == ""):
-        obs = faces.observation(int(i))
-        crop, points = aligned_face(obs.image, obs.landmarks, config.crop_size,
-                                    config.eye_distance, config.eye_row)
-        problems[i] = blur_problem(sharpness(cv2.equalizeHist(crop), points), limits) \
-            or problems[i]
-    return problems.astype(str)
+                      part.dims | {"appearance": c.shape[1]}, part.learnable)
 
 
 def _gate_key() -> str:
@@ -150,24 +130,24 @@ def _set_faces(model: Path, name: str, config: FitterConfig, say: Callable[[str]
         faces = LabelledFaces.load(path)
         with np.load(path, allow_pickle=False) as f:
             if faces is not None and "X" in f:
-                return BenchFaces(faces, f["X"], f["problems"], {k: int(v) for k, v in
-                                                                 zip(f["block_names"],
-                                                                     f["block_dims"],
-                                                                     strict=True)})
+                dims = {k: int(v) for k, v in zip(f["block_names"], f["block_dims"],
+                                                  strict=True)}
+                return BenchFaces(faces, f["X"], f["problems"], dims, f["learnable"])
     say(f"fitting every face of {name} once (kept in {path.parent})")
     faces = fit_faces(FittingModel.load(model), load_expression_set(name), config)
-    limits = QualityLimits()
-    observed = observe(faces.observations, IMAGE_FEATURES, replace(limits, min_sharpness=0.0))
+    observed = observe(faces.observations, IMAGE_FEATURES, QualityLimits(), learn_blurred=True)
     X, dims = observed.vectors(IMAGE_FEATURES.blocks), observed.dims(IMAGE_FEATURES.blocks)
-    problems = _with_blur(faces, np.array(observed.problems, dtype=object), limits)
+    problems = np.array(observed.problems)
     tmp = path.with_name(f"{stem}.tmp.npz")
     faces.save(tmp)
     with np.load(tmp, allow_pickle=False) as f:
         saved = dict(f)
     np.savez(tmp, **saved, X=X.astype(np.float32), problems=problems,
-             block_names=np.array(list(dims)), block_dims=np.array(list(dims.values())))
+             learnable=observed.learnable, block_names=np.array(list(dims)),
+             block_dims=np.array(list(dims.values())))
     tmp.replace(path)
-    return BenchFaces(faces, X.astype(np.float32).astype(np.float64), problems, dims)
+    return BenchFaces(faces, X.astype(np.float32).astype(np.float64), problems, dims,
+                      observed.learnable)
 
 
 def bench_faces(model: str | Path, sets: Sequence[str] = EXPRESSION_SETS,
@@ -179,4 +159,4 @@ def bench_faces(model: str | Path, sets: Sequence[str] = EXPRESSION_SETS,
              for name in sets]
     return BenchFaces(LabelledFaces.concatenate([p.faces for p in parts]),
                       np.vstack([p.X for p in parts]), np.concatenate([p.problems for p in parts]),
-                      parts[0].dims)
+                      parts[0].dims, np.concatenate([p.learnable for p in parts]))

@@ -37,6 +37,7 @@ def analyse_face(
     template: np.ndarray | None = None,
     check: bool = True,
     appearance_dim: int | None = None,
+    learn_blurred: bool = False,
 ) -> tuple[str, Blocks | None]:
     """The quality gate and the feature blocks of one face.
 
@@ -52,6 +53,10 @@ def analyse_face(
         Run the gate (False: only compute the blocks, for a face known to pass).
     appearance_dim : int, optional
         A fit without an appearance (a failed regressor fit) gets this many zeros for it.
+    learn_blurred : bool
+        A face refused only as blurred gets its blocks beside the reason: the training learns
+        from it (the sharpness check guards what is served, and a classifier that has seen a
+        little blur reads a little blur better).
 
     Returns
     -------
@@ -59,7 +64,8 @@ def analyse_face(
         ``""`` or why the face is refused (``""`` when ``check`` is False).
     blocks : dict of str to 1-D float64 array, or None
         By name, in ``config.blocks`` order, lengths as
-        :meth:`FeatureConfig.block_dims`; None when there is a problem.
+        :meth:`FeatureConfig.block_dims`; None when there is a problem (but for
+        ``learn_blurred``).
 
     Raises
     ------
@@ -75,13 +81,14 @@ def analyse_face(
     points = observation.landmarks
     if shape is None:
         check_landmarks(points)
-    hog = None
+    problem, hog = "", None
     if check or "hog" in config.blocks:
-        problem, hog = _hog(observation.image, points, config, limits if check else None)
-        if problem:
+        problem, hog = _hog(observation.image, points, config, limits if check else None,
+                            learn_blurred)
+        if hog is None:
             return problem, None
-    return "", _blocks(config.blocks, hog, shape, points, observation.appearance,
-                       appearance_dim)
+    return problem, _blocks(config.blocks, hog, shape, points, observation.appearance,
+                            appearance_dim)
 
 
 def _blocks(names: tuple[str, ...], hog: np.ndarray | None, shape: np.ndarray | None,
@@ -103,22 +110,24 @@ def _blocks(names: tuple[str, ...], hog: np.ndarray | None, shape: np.ndarray | 
 
 
 def _hog(image: np.ndarray, points: np.ndarray, config: FeatureConfig,
-         limits: QualityLimits | None) -> tuple[str, np.ndarray]:
-    """The HOG block (P * cells^2 * bins,) of the face's canonical crop and, with ``limits``,
-    the gate's verdict on its sharpness and mirror symmetry (``""``: none checked or it
-    passes; a blurred face's block is empty)."""
+         limits: QualityLimits | None, learn_blurred: bool = False
+         ) -> tuple[str, np.ndarray | None]:
+    """With ``limits``, the gate's verdict on the face's sharpness, then its mirror symmetry
+    (``""``: none checked or it passes), and the HOG block (P * cells^2 * bins,) of its
+    canonical crop: None for a refused face (but a blurred one with ``learn_blurred``)."""
     crop, crop_points = aligned_face(image, points, config.crop_size, config.eye_distance,
                                      config.eye_row)
     equalised = cv2.equalizeHist(crop)
     if limits is None:
         return "", hog_block(equalised if config.equalise else crop, crop_points, config)
     blurred = blur_problem(sharpness(equalised, crop_points), limits)
-    if blurred:
-        return blurred, np.zeros(0)
+    if blurred and not learn_blurred:
+        return blurred, None
     own, mirrored = hog_pair(equalised, crop_points, config)
-    hog = own if config.equalise else hog_block(crop, crop_points, config)
-    symmetry = patch_symmetry(own, mirrored, len(config.hog_points))
-    return symmetry_problem(symmetry, limits), hog
+    symmetry = symmetry_problem(patch_symmetry(own, mirrored, len(config.hog_points)), limits)
+    if symmetry:
+        return blurred or symmetry, None
+    return blurred, own if config.equalise else hog_block(crop, crop_points, config)
 
 
 def face_problem(
@@ -143,13 +152,18 @@ class Observed:
     Attributes
     ----------
     blocks : dict of str to (n, d_b) float64 array
-        Every block asked for; rows of refused faces are zero.
+        Every block asked for; rows of refused faces are zero (not those of
+        :attr:`learnable` ones).
     problems : list of str
         Per face: ``""`` or why it was refused.
+    learnable : (n,) bool array
+        The faces with blocks: the classifiable ones and, observed with ``learn_blurred``,
+        those refused only as blurred.
     """
 
     blocks: Blocks
     problems: list[str]
+    learnable: np.ndarray
 
     @property
     def ok(self) -> np.ndarray:
@@ -171,6 +185,7 @@ def observe(
     limits: QualityLimits = QualityLimits(),
     template: np.ndarray | None = None,
     appearance_dim: int | None = None,
+    learn_blurred: bool = False,
 ) -> Observed:
     """:func:`analyse_face` of each observation, gate included.
 
@@ -180,7 +195,7 @@ def observe(
     config : FeatureConfig
     limits, template
         Of the gate.
-    appearance_dim : int, optional
+    appearance_dim, learn_blurred
         As :func:`analyse_face`.
 
     Returns
@@ -192,7 +207,8 @@ def observe(
     for observation in observations:
         try:
             problem, blocks = analyse_face(observation, config, limits, template,
-                                           appearance_dim=appearance_dim)
+                                           appearance_dim=appearance_dim,
+                                           learn_blurred=learn_blurred)
         except FaceFeatureError as exc:
             problem, blocks = f"no features: {exc}", None
         rows.append(blocks)
@@ -204,4 +220,4 @@ def observe(
         if r is not None:
             for name in config.blocks:
                 out[name][i] = r[name]
-    return Observed(out, problems)
+    return Observed(out, problems, np.array([r is not None for r in rows], dtype=bool))

@@ -70,20 +70,19 @@ class NetworkModel:
 
     def scores(self, X: np.ndarray) -> np.ndarray:
         """Per-class scores of the rows of X (n, d), shape (n, n_classes)."""
-        mean, weights = self._hidden_weights
-        Z = (np.asarray(X, np.float64) - mean).astype(np.float32)
-        hidden = np.maximum(Z @ weights + self.hidden_intercept, 0.0)
+        Z = (np.asarray(X, np.float64) - self.mean).astype(np.float32)
+        hidden = np.maximum(Z @ self._hidden_weights + self.hidden_intercept, 0.0)
         return hidden @ self.coef.T + self.intercept
 
     @cached_property
-    def _hidden_weights(self) -> tuple[np.ndarray, np.ndarray]:
-        """The mean (d,) and the hidden layer's weights divided by the scale (d, h), float32:
+    def _hidden_weights(self) -> np.ndarray:
+        """The hidden layer's weights divided by the scale (d, h), float32:
         half the bytes of the largest array, read at every frame after the fitter has
         filled the caches with its own (the stack's expression stage ran 1.5x slower than
         alone), at rounding of a few parts in a million of the scores."""
         weights = (self.hidden_coef / self.scale[:, None]).astype(np.float32)
         weights.setflags(write=False)
-        return self.mean, weights
+        return weights
 
     def shifted(self, offset: np.ndarray) -> NetworkModel:
         """The same network with ``offset`` (n_classes,) added to every row's scores."""

@@ -143,11 +143,9 @@ def gated(faces: LabelledFaces, config: FeatureConfig, limits: QualityLimits,
     ValueError
         When no face passes the gate.
     """
-    # Blurred faces are learned from: the sharpness check guards what is served, not what
-    # is learned (a classifier that has seen a little blur reads a little blur better).
-    observed = observe(faces.observations, config, replace(limits, min_sharpness=0.0),
-                       appearance_dim=appearance_dim)
-    ok = observed.ok & (True if train is None else np.asarray(train, bool))
+    observed = observe(faces.observations, config, limits, appearance_dim=appearance_dim,
+                       learn_blurred=True)
+    ok = observed.learnable & (True if train is None else np.asarray(train, bool))
     if not ok.any():
         raise ValueError("no face passes the quality gate")
     template = np.mean([canonical_shape(faces.landmarks[i]) for i in np.flatnonzero(ok)],

@@ -116,6 +116,12 @@ def test_a_blurred_face_is_refused_and_the_same_face_sharp_or_dim_is_not(jaffe) 
             why, blocks = analyse_face(seen, config)
             assert (reason_key(why) == "face blurred") == refused, (i, why)
             assert (blocks is None) == refused
+            # the training learns from a face refused only as blurred: its blocks, its reason
+            learnt, kept = analyse_face(seen, config, learn_blurred=True)
+            assert learnt == why and kept is not None
+            plain = analyse_face(seen, config, check=False)[1]
+            assert plain is not None
+            np.testing.assert_array_equal(kept["hog"], plain["hog"])
     assert blur_problem(95.0) == "" and "sharpness 40 (at least 90" in blur_problem(40.0)
 
 
