@@ -17,11 +17,14 @@ DARK_LEVEL = 25.0
 
 def darkness(image: np.ndarray) -> str:
     """Why ``image`` (H, W) or (H, W, C) uint8 is too dark to find a face in, or ``""``: its
-    mean grey level (every fourth pixel of every fourth row) under :data:`DARK_LEVEL`."""
+    mean grey level (every eighth pixel of every eighth row: 30 us for a 640x360 frame
+    without a face) under :data:`DARK_LEVEL`."""
     if np.ndim(image) < 2 or np.size(image) == 0:
         return ""
-    level = float(np.mean(np.asarray(image)[::4, ::4, :3] if np.ndim(image) == 3
-                          else np.asarray(image)[::4, ::4]))
+    seen = np.asarray(image)[::8, ::8]
+    if seen.ndim == 3:
+        seen = seen[:, :, :3]
+    level = float(seen.sum(dtype=np.uint64)) / seen.size
     if level >= DARK_LEVEL:
         return ""
     return f"the frame is dark (mean grey level {level:.0f} of 255, at least {DARK_LEVEL:g} " \
