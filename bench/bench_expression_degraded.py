@@ -11,8 +11,9 @@ in the frame); and at half, a quarter, an eighth and a sixteenth of the exposure
 scaled, sensor noise of 2 levels, rounded); and with a hand of skin like the face's over
 part of it (:func:`aamcore.fitting.occluders.draw_occluder`). Each row: the faces fitted,
 labelled, labelled right, and the reasons of the rest. Beside them, the quality gate's sharpness
-(:func:`aamcore.expression.quality.sharpness`) of training faces as they are, whose 0.5th
-percentile the gate's limit follows.
+(:func:`aamcore.expression.quality.sharpness`) of every training face as it is, whose 1st
+percentile the gate's limit follows (a rule on the training people: the limit was not chosen
+on the faces this bench reports).
 
 Targets (issue 46, bad input: "a face too small, blurred, dark or half out of the frame: a
 reason, never a confident label"): of the faces blurred by 2 crop pixels or more at most 10 %
@@ -137,13 +138,12 @@ def _first(tracker: object, image: np.ndarray) -> object:
     return tracker.process_faces(image, 0.0)[0]  # type: ignore[attr-defined]
 
 
-def training_sharpness(tracker: object, n: int) -> np.ndarray:
-    """The gate's sharpness of ``n`` training faces of each set, as they are."""
+def training_sharpness(tracker: object) -> np.ndarray:
+    """The gate's sharpness of every training face of the sets, as they are."""
     config, values = FeatureConfig(), []
-    rng = np.random.default_rng(1)
     for name in SETS:
         data = load_expression_set(name)
-        for i in pick(~data.held_out(), n, rng):
+        for i in np.flatnonzero(~data.held_out()):
             image = read_image(data.samples[int(i)].image_path)
             seen = _first(tracker, image)
             if seen.landmarks.size:
@@ -156,8 +156,7 @@ def training_sharpness(tracker: object, n: int) -> np.ndarray:
 def main(argv: list[str] | None = None) -> int:
     parser = options.parser(__doc__, __name__, model=True)
     parser.add_argument("--faces", type=int, default=150,
-                        help="held-out faces of each set (default 150), and as many "
-                             "training faces for the sharpness percentiles")
+                        help="held-out faces of each set (default 150)")
     args = options.parse(parser, argv)
     from aamcore.tracker import FaceTracker
 
@@ -165,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
     model = options.model_path(args) if args.model is not None else None
     tracker = FaceTracker(model=model)
     rows = held_out_rows(tracker, args.faces)
-    train = training_sharpness(tracker, args.faces)
+    train = training_sharpness(tracker)
     limit = tracker.expression.classifier.pipeline.quality.min_sharpness  # type: ignore
     print(f"{'faces':<16}{'n':>5}{'fitted':>8}{'labelled':>9}{'right':>7}  reasons of the rest")
     for row in rows:
@@ -173,9 +172,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{row.name:<16}{row.faces:>5}{row.share(row.fitted):>7.0f}%"
               f"{row.share(row.labelled):>8.0f}%{row.right_share:>6.1f}%  {top}")
     pct = np.percentile(train, [0.5, 1, 5, 50]) if train.size else np.full(4, np.nan)
-    print(f"\ntraining faces as they are ({train.size}): sharpness 0.5th/1st/5th/50th "
-          f"percentile {pct[0]:.0f} / {pct[1]:.0f} / {pct[2]:.0f} / {pct[3]:.0f}; the gate's "
-          f"limit {limit:g}, {int((train < limit).sum())} below it")
+    print(f"\nevery training face as it is ({train.size}): sharpness 0.5th/1st/5th/50th "
+          f"percentile {pct[0]:.1f} / {pct[1]:.1f} / {pct[2]:.1f} / {pct[3]:.1f}; the gate's "
+          f"limit {limit:g} (its rule: the 1st percentile), {int((train < limit).sum())} "
+          f"below it ({100 * np.mean(train < limit):.1f} %)")
     sharp = rows[0]
     blurred = [row for row in rows if row.kind == "blur" and row.level >= 2.0]
     faces, labelled = sum(r.faces for r in blurred), sum(r.labelled for r in blurred)

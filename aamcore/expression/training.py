@@ -52,7 +52,7 @@ from aamcore.io.sample import DatasetError
 from aamcore.model.cache import locked
 from aamcore.progress import note, phase, plan
 
-TRAINING_VERSION = 10
+TRAINING_VERSION = 11
 """Bump when the training below changes, so that cached classifiers are retrained (3: the
 RBF SVM of raw ``c``; 5: the face-feature pipeline; 6: keyed by algorithm and feature set;
 7: the person-independent model beside the relative one; 8: temperatures fitted on ten
@@ -60,7 +60,8 @@ folds of one poser; 9: learned from the three expression sets by logistic regres
 relative model on each person's median face, fused with the absolute one; 10: the
 appearance block, the person-independent model a small network weighing each class of
 each set alike with class biases fitted out of fold, the relative model on each person's
-faces that look neutral)."""
+faces that look neutral; 11: the same arrays, the gate's sharpness limit that the file
+carries from the training people's rule, 72 instead of 90)."""
 FEATURES = FeatureConfig(blocks=("hog", "shape", "appearance"))
 """The deployed feature blocks: HOG patches around the 51 inner landmarks of the canonical
 crop, the 68 landmarks in the canonical frame and the AAM's appearance parameters ``c``
