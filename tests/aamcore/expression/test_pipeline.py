@@ -1,4 +1,5 @@
-"""aamcore.expression.pipeline: one stream's gate, reference and classifier, on synthetic faces."""
+"""aamcore.expression.pipeline: one stream's gate, reference and classifier, on synthetic faces
+and, for the occlusion flags, real ones."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 import pytest
 
 from aamcore.expression.classifier_file import ExpressionClassifier
-from aamcore.expression.crop import FaceObservation
+from aamcore.expression.crop import FaceObservation, aligned_face
 from aamcore.expression.face_classifier import LinearModel
 from aamcore.expression.pipeline import ExpressionPipeline
 from aamcore.expression.spec import FeatureConfig, PipelineSpec
@@ -119,3 +120,41 @@ def test_the_reference_is_the_neutral_face_not_a_long_smile() -> None:
     assert pipeline.reference.count == 3
     later = pipeline.process(expression_observation("HA", person))
     assert later.basis == "relative" and later.label == "HA"
+
+
+def test_what_lies_under_the_flagged_landmarks_says_nothing(jaffe, classifier_path) -> None:
+    """Real faces, the trained classifier: the mouth painted over with stripes (as a hand's
+    fingers would lie) turns the labels when nothing is flagged; with the landmarks whose
+    patches reach the paint flagged occluded, the probabilities hardly move (only the crop's
+    equalisation sees the paint) and the stream's reference does not learn from the face."""
+    loaded = ExpressionClassifier.load(classifier_path)
+    quality = replace(loaded.pipeline.quality, max_covered=0.6)  # the whole mouth may be
+    deployed = replace(loaded, pipeline=replace(loaded.pipeline, quality=quality))  # flagged
+    config = deployed.pipeline.features
+    moved, entered = {True: 0.0, False: 0.0}, {True: 0, False: 0}
+    for obs in jaffe.observations[::40]:
+        crop_points = aligned_face(obs.image, obs.landmarks, config.crop_size,
+                                   config.eye_distance, config.eye_row)[1]
+        (x0, y0), (x1, y1) = obs.landmarks[48:].min(axis=0), obs.landmarks[48:].max(axis=0)
+        painted = obs.image.copy()
+        rows, cols = np.mgrid[: painted.shape[0], : painted.shape[1]]
+        box = (cols >= x0) & (cols <= x1) & (rows >= y0) & (rows <= y1)
+        painted[box] = np.where(cols[box] // 4 % 2 == 0, 200, 120)
+        (u0, v0), (u1, v1) = crop_points[48:].min(axis=0), crop_points[48:].max(axis=0)
+        reach = config.hog_half + 3  # a patch's half side, the warp's and gradient's pixels
+        flags = ((crop_points[:, 0] >= u0 - reach) & (crop_points[:, 0] <= u1 + reach)
+                 & (crop_points[:, 1] >= v0 - reach) & (crop_points[:, 1] <= v1 + reach))
+        flags[:17] = False
+        for flagged in (True, False):
+            scores = []
+            for image in (obs.image, painted):
+                pipeline = ExpressionPipeline(deployed)
+                seen = pipeline.process(FaceObservation.from_arrays(
+                    image, obs.landmarks, obs.appearance, occluded=flags if flagged else None))
+                assert seen.scores is not None, seen.reason
+                entered[flagged] += pipeline.reference.count
+                scores.append(seen.scores)
+            moved[flagged] += 0.5 * float(np.abs(scores[0] - scores[1]).sum())
+    assert moved[False] > 0.5  # the paint is read where nothing is flagged
+    assert moved[True] < 0.2 * moved[False]
+    assert entered[True] == 0 < entered[False]  # neutral-looking faces seen whole enter it
