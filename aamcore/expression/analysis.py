@@ -145,14 +145,18 @@ def feature_vector(blocks: Blocks, config: FeatureConfig) -> np.ndarray:
     return np.concatenate([blocks[name] for name in config.blocks])
 
 
+_NONE = np.zeros(0, np.intp)
+_NONE.setflags(write=False)
+
+
 def hidden_dims(occluded: np.ndarray | None, config: FeatureConfig, appearance_dim: int
                 ) -> np.ndarray:
     """The dimensions (k,) of :func:`feature_vector` (with an appearance of
     ``appearance_dim``) that the HOG patches of the landmarks flagged ``occluded`` (68,) bool
     hold: what a hand or an object over them shows, not the face; none without flags or
     without HOG patches."""
-    if occluded is None or "hog" not in config.blocks:
-        return np.zeros(0, np.intp)
+    if occluded is None or not occluded.any() or "hog" not in config.blocks:
+        return _NONE
     dims = config.block_dims(appearance_dim)
     start = sum(dims[name] for name in config.blocks[:config.blocks.index("hog")])
     size = config.hog_cells**2 * config.hog_bins
