@@ -35,6 +35,7 @@ import cv2
 import numpy as np
 
 from aamcore.expression.crop import aligned_face
+from aamcore.expression.quality import BLURRED as BLURRED_REASON
 from aamcore.expression.quality import reason_key, sharpness
 from aamcore.expression.spec import FeatureConfig
 from aamcore.fitting.occluders import draw_occluder
@@ -190,8 +191,8 @@ def main(argv: list[str] | None = None) -> int:
     KEPT_RIGHT.check(not worse, ("below: " + ", ".join(worse)) if worse else
                      f"sharp {sharp.right_share:.1f}%, the others "
                      + ", ".join(f"{row.right_share:.1f}" for row in kept))
-    SHARP_REFUSED.check(sharp.share(sharp.reasons["face blurred"]),
-                        f"{sharp.reasons['face blurred']} of {sharp.faces}")
+    SHARP_REFUSED.check(sharp.share(sharp.reasons[BLURRED_REASON]),
+                        f"{sharp.reasons[BLURRED_REASON]} of {sharp.faces}")
     tracker.close()
     return 0
 

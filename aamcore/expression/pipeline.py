@@ -136,8 +136,9 @@ class ExpressionPipeline:
         classifier = self.classifier
         # expression from the visible evidence: the patches of landmarks flagged occluded
         # read as the average face's (the network's mean) and as no change from the
-        # person's reference (held out: sharp faces 68.9 -> 70.1 % right, under a hand
-        # 56.2 -> 57.1 %, python -m bench expression-degraded)
+        # person's reference (held out, python -m bench expression-degraded: sharp faces
+        # 68.9 -> 70.1 % right, under a hand 56.2 -> 57.1 %; bench expression --streams:
+        # 63.1 -> 62.9 % of the frames; all within the benches' noise)
         hidden = hidden_dims(observation.occluded, spec.features, spec.appearance_dim)
         if not spec.relative:
             return self._estimate(classifier.probabilities(
