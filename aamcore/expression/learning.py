@@ -25,7 +25,9 @@ probability means on new people what it says.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -37,6 +39,9 @@ from aamcore.expression.reference import poser_references
 
 NEUTRAL = "NE"
 """The class a stream's reference estimates."""
+THREADS = max(1, min(4, os.cpu_count() or 1))
+"""Threads that learn the out-of-fold models at once: scikit-learn's solvers spend most of
+their time in numpy, which releases the GIL."""
 LEARNERS = ("logistic", "network")
 """The person-independent models :class:`Recipe` may choose."""
 
@@ -62,8 +67,8 @@ class Recipe:
         The person-independent model: ``"logistic"`` (``C``) or ``"network"``
         (:func:`~aamcore.expression.network.fit_network` with ``hidden``, ``alpha`` and
         ``epochs``).
-    hidden, alpha, epochs
-        Of the network.
+    hidden, alpha, epochs, seeds
+        Of the network (``seeds``: networks averaged, each of ``hidden`` units).
     balance : str
         How the person-independent model weighs its faces besides the set weights:
         ``"class"`` (each class alike) or ``"set_class"`` (each class of each set alike: a
@@ -88,6 +93,7 @@ class Recipe:
     hidden: int = 256
     alpha: float = 1e-2
     epochs: int = 60
+    seeds: int = 1
     balance: str = "class"
     class_biases: bool = False
     min_neutral: float = 0.0
@@ -193,15 +199,18 @@ def out_of_fold(fit: Callable[[np.ndarray], FittedFaceClassifier], classes: tupl
                 X: np.ndarray, y: np.ndarray, persons: np.ndarray, folds: int) -> np.ndarray:
     """Scores (n, C) of every row by a model ``fit(train_mask)`` learned without its person.
 
-    People are dealt round-robin (in sorted order) into ``folds`` folds. A class a fold's
-    training rows lack gets a score far below the row's others (probability about 0).
+    People are dealt round-robin (in sorted order) into ``folds`` folds, whose models are
+    learned in :data:`THREADS` threads (each seeded: the same scores however many). A class a
+    fold's training rows lack gets a score far below the row's others (probability about 0).
     """
     names, index = np.unique(np.asarray(persons).astype(str), return_inverse=True)
     fold = index % min(folds, len(names))
     out = np.zeros((len(X), len(classes)))
-    for k in np.unique(fold):
+    ks = np.unique(fold)
+    with ThreadPoolExecutor(min(THREADS, len(ks))) as pool:
+        models = list(pool.map(lambda k: fit(fold != k), ks))
+    for k, model in zip(ks, models, strict=True):
         test = fold == k
-        model = fit(~test)
         scores = model.scores(X[test])
         columns = [model.classes.index(c) if c in model.classes else -1 for c in classes]
         floor = scores.min(axis=1, keepdims=True) - 30.0
@@ -246,7 +255,8 @@ def learn(X: np.ndarray, y: np.ndarray, persons: np.ndarray, sets: np.ndarray,
                  ) -> FittedFaceClassifier:
         if recipe.learner == "network":
             return fit_network(X[rows], y[rows], dims, recipe.hidden, recipe.alpha,
-                               recipe.epochs, sample_weight=cells[rows])
+                               recipe.epochs, sample_weight=cells[rows], seeds=recipe.seeds,
+                               threads=THREADS)
         return fit_logistic(X[rows], y[rows], dims, C=recipe.C, sample_weight=cells[rows],
                             start=start)
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from functools import cached_property
 
@@ -115,8 +116,11 @@ def fit_network(
     epochs: int = 60,
     seed: int = 0,
     sample_weight: np.ndarray | None = None,
+    seeds: int = 1,
+    threads: int = 1,
 ) -> FittedFaceClassifier:
-    """A one-hidden-layer network of block-scaled vectors, classes weighted alike.
+    """A one-hidden-layer network of block-scaled vectors, classes weighted alike; with
+    ``seeds`` > 1 the average of the scores of that many networks, stored as one network.
 
     Parameters
     ----------
@@ -125,7 +129,7 @@ def fit_network(
     block_dims : mapping str -> int
         Block names and lengths in vector order (sum d).
     hidden : int
-        Units of the hidden layer.
+        Units of the hidden layer (of each network).
     alpha : float
         L2 penalty of the weights.
     epochs : int
@@ -134,29 +138,65 @@ def fit_network(
         Of the initial weights and the batches: the same data give the same network.
     sample_weight : (n,) float array, optional
         Times the class weights.
+    seeds : int
+        Networks trained from seeds ``seed``, ``seed + 1``, ...: their hidden layers side by
+        side and their output weights divided by ``seeds`` score the mean of their scores,
+        so the ensemble is one :class:`NetworkModel` of ``seeds * hidden`` units.
+    threads : int
+        Networks trained at once (the same ensemble however many).
     """
-    from sklearn.neural_network import MLPClassifier  # here: serving never imports it
-    from sklearn.utils.class_weight import compute_sample_weight
+    if seeds < 1:
+        raise ValueError(f"seeds must be >= 1, got {seeds}")
+    y = np.asarray(y).astype(str)
+    scaler, gain, Z, weight = _scaled(X, y, block_dims, sample_weight)
+    with ThreadPoolExecutor(max(1, min(threads, seeds))) as pool:
+        layers = list(pool.map(lambda k: _one_network(Z, y, weight, hidden, alpha, epochs,
+                                                      seed + k), range(seeds)))
+    model = NetworkModel(scaler.mean_.copy(), scaler.scale_ / gain,
+                         np.hstack([layer[1] for layer in layers]),
+                         np.concatenate([layer[2] for layer in layers]),
+                         np.hstack([layer[3] for layer in layers]) / seeds,
+                         np.mean([layer[4] for layer in layers], axis=0))
+    return FittedFaceClassifier(model, layers[0][0], "network",
+                                {"classifier": "network", "hidden": hidden, "alpha": alpha,
+                                 "epochs": epochs, "seeds": seeds})
+
+
+def _scaled(X: np.ndarray, y: np.ndarray, block_dims: Mapping[str, int],
+            sample_weight: np.ndarray | None
+            ) -> tuple[BlockScaler, float, np.ndarray, np.ndarray]:
+    """The block scaler of X (n, d), its gain, the rows it scales (n, d) and their weights
+    (n,): the classes weighted alike, times ``sample_weight``."""
+    from sklearn.utils.class_weight import compute_sample_weight  # serving never imports it
 
     X = np.asarray(X, np.float64)
-    y = np.asarray(y).astype(str)
     scaler = BlockScaler(tuple(block_dims.items())).fit(X)
     # Each block's variance is 1 / len(blocks) after the scaler: a unit total per block
     # suits the network's default initialisation.
-    gain = np.sqrt(len(block_dims))
+    gain = float(np.sqrt(len(block_dims)))
     weight = compute_sample_weight("balanced", y)
     if sample_weight is not None:
         weight = weight * np.asarray(sample_weight, np.float64)
+    return scaler, gain, scaler.transform(X) * gain, weight
+
+
+def _one_network(Z: np.ndarray, y: np.ndarray, weight: np.ndarray, hidden: int, alpha: float,
+                 epochs: int, seed: int
+                 ) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The classes and the weights of one network of scaled rows Z (n, d): hidden (d, h) and
+    (h,), output (k, h) and (k,)."""
+    from sklearn.exceptions import ConvergenceWarning
+    from sklearn.neural_network import MLPClassifier
+
+    # Stopping at ``epochs`` is meant. A filter for that message alone, not catch_warnings,
+    # whose save and restore of the global filters races between threads.
+    warnings.filterwarnings("ignore", "Stochastic Optimizer: Maximum iterations",
+                            ConvergenceWarning)
     net = MLPClassifier((hidden,), alpha=alpha, max_iter=epochs, random_state=seed,
-                        batch_size=128)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # stopping at ``epochs`` is meant
-        net.fit(scaler.transform(X) * gain, y, sample_weight=weight)
+                        batch_size=min(128, len(Z)))
+    net.fit(Z, y, sample_weight=weight)
     (w1, w2), (b1, b2) = net.coefs_, net.intercepts_
     classes = tuple(str(c) for c in net.classes_)
     if len(classes) == 2:  # one logistic output: the second class's score, as +/- halves
         w2, b2 = np.hstack([-w2, w2]) / 2.0, np.array([-b2[0], b2[0]]) / 2.0
-    model = NetworkModel(scaler.mean_.copy(), scaler.scale_ / gain, w1, b1, w2.T.copy(), b2)
-    return FittedFaceClassifier(model, classes, "network",
-                                {"classifier": "network", "hidden": hidden, "alpha": alpha,
-                                 "epochs": epochs})
+    return classes, w1, b1, w2.T.copy(), b2

@@ -90,3 +90,21 @@ def test_what_cannot_be_learned_is_refused_or_left_out(five_posers: FeatureSet) 
     for bad in ({"C": 0.0}, {"absolute_weight": -1.0}, {"folds": 1}):
         with pytest.raises(ValueError):
             Recipe(**bad)  # type: ignore[arg-type]
+
+
+def test_threads_learn_the_same_models(five_posers: FeatureSet,
+                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    from aamcore.expression import learning
+
+    X, y, people = five_posers.features, five_posers.labels, five_posers.posers
+    sets = np.full(len(y), "jaffe")
+    recipe = Recipe(folds=3, learner="network", hidden=16, epochs=20, seeds=2,
+                    class_biases=True, min_reference_faces=1)
+    learned = {}
+    for threads in (1, 3):
+        monkeypatch.setattr(learning, "THREADS", threads)
+        learned[threads] = learn(X, y, people, sets, {"hog": X.shape[1]}, recipe)
+    one, many = learned[1], learned[3]
+    assert one.absolute.model.hidden_coef.shape[1] == 32  # two seeds of 16 units
+    np.testing.assert_array_equal(one.absolute.scores(X), many.absolute.scores(X))
+    assert one.absolute_temperature == many.absolute_temperature

@@ -53,3 +53,18 @@ def test_a_rare_class_weighs_as_much_as_a_frequent_one() -> None:
     fitted = fit_network(X[rare], y[rare], DIMS, hidden=32, alpha=1e-3, epochs=200)
     neutral = y == "NE"
     assert np.mean(fitted.predict(X[neutral & ~rare]) == "NE") > 0.5
+
+
+def test_an_ensemble_is_one_network_scoring_its_members_mean() -> None:
+    X, y = rings()
+    members = [fit_network(X[:300], y[:300], DIMS, hidden=16, epochs=60, seed=s)
+               for s in (3, 4, 5)]
+    ensemble = fit_network(X[:300], y[:300], DIMS, hidden=16, epochs=60, seed=3, seeds=3)
+    assert isinstance(ensemble.model, NetworkModel)
+    assert ensemble.model.hidden_coef.shape == (X.shape[1], 48)
+    mean = np.mean([m.scores(X) for m in members], axis=0)
+    np.testing.assert_allclose(ensemble.scores(X), mean, rtol=1e-4, atol=1e-4)
+    # the members differ, so the mean is not any one of them
+    assert np.abs(members[0].scores(X) - mean).max() > 1e-2
+    with pytest.raises(ValueError, match="seeds"):
+        fit_network(X, y, DIMS, seeds=0)
