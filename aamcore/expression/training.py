@@ -88,7 +88,10 @@ neutral 0.59), three seeds of 25 epochs 0.613 / 0.731. On the bench's held-out p
 copies of the training faces (the frame flipped, the fit's landmarks mirrored, ``c`` sampled
 there), same folds: 40 epochs 0.626 / 0.773 (recall 0.493, neutral 0.59), 20 epochs 0.591 /
 0.753; 80 epochs without them 0.613 / 0.783 (0.495, neutral 0.56): their gain is the extra
-steps', and they cost the neutral face, so they are not used. Out of fold,
+steps', and they cost the neutral face, so they are not used. L2 penalty 0.03 or 0.003, or
+96 units a seed: within a point of these on every figure. Sessions (JAFFE / Taiwanese / LFW)
+by the absolute weight 0.25, 1, 2: 0.732 / 0.621 / 0.740, 0.709 / 0.649 / 0.754, 0.690 /
+0.641 / 0.758 (a trade between the sets, kept at 0.25). Out of fold,
 the folds of training people: the network 0.66 of the Taiwanese performers and 0.73 of
 JAFFE against 0.62 and 0.68 for the logistic model. Before (v9,
 ``bench_expression.py --select``): C 3 against 1 scored 0.572 against 0.563 for the
