@@ -40,8 +40,9 @@ from aamcore.expression.reference import poser_references
 NEUTRAL = "NE"
 """The class a stream's reference estimates."""
 THREADS = max(1, min(4, os.cpu_count() or 1))
-"""Threads that learn the out-of-fold models at once: scikit-learn's solvers spend most of
-their time in numpy, which releases the GIL."""
+"""Threads that learn models at once (the out-of-fold models, and the seeds of a network
+within each): scikit-learn's solvers spend most of their time in numpy, which releases the
+GIL."""
 LEARNERS = ("logistic", "network")
 """The person-independent models :class:`Recipe` may choose."""
 
