@@ -263,3 +263,23 @@ def test_the_bus_layer_knows_no_algorithm() -> None:
             offenders += [f"{path.relative_to(REPO_ROOT)}: {n}" for n in names
                           if n.split(".")[0] == "aamcore" and n != "aamcore.settings"]
     assert not offenders, offenders
+
+
+SERVING = ("aamcore.tracker", "aamcore.annotate", "services.cli", "services.stack.launcher",
+           *(f"services.{name}.service" for name in ("source", "detector", "fitter", "pose",
+                                                     "expression", "ar", "rerun_logger")))
+"""What a run and every command start with."""
+TRAINING_ONLY = ("sklearn", "scipy.optimize", "scipy.stats")
+"""Imported by training alone: about a second of every process's start-up when not."""
+
+
+def test_serving_starts_without_the_training_libraries() -> None:
+    import subprocess
+    import sys
+
+    code = (f"import importlib, sys\nfor m in {SERVING!r}: importlib.import_module(m)\n"
+            f"print(sorted(m for m in {TRAINING_ONLY!r} if m in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=REPO_ROOT, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]", done.stdout

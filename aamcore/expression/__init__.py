@@ -11,6 +11,7 @@ The pipeline (what the library and the expression service run per frame):
 - :mod:`.spec`: :class:`PipelineSpec`, the feature, reference and gate settings;
 - :mod:`.face_classifier`: block-weighted linear models (logistic regression, shrinkage
   LDA) and the RBF SVM;
+- :mod:`.scores`: the stored models' numpy predictors (no scikit-learn at serving);
 - :mod:`.classifier_file`: :class:`ExpressionClassifier`, saved without pickle;
 - :mod:`.pipeline`: :class:`ExpressionPipeline`, one stream;
 - :mod:`.recogniser`: :class:`ExpressionRecogniser`, the pipeline with score smoothing.
@@ -30,17 +31,27 @@ from aamcore.expression.classifier_file import (
     ClassifierFileError,
     ExpressionClassifier,
 )
-from aamcore.expression.concentration import choose_n_components, concentration_study
 from aamcore.expression.crop import FaceFeatureError, FaceObservation
-from aamcore.expression.hypersphere import HypersphereMap
 from aamcore.expression.labels import FIVE_CLASSES, SEVEN_CLASSES
-from aamcore.expression.lda import FisherMahalanobis
 from aamcore.expression.pipeline import ExpressionEstimate, ExpressionPipeline
 from aamcore.expression.recogniser import ExpressionRecogniser, Recognition
 from aamcore.expression.reference import NeutralReference
 from aamcore.expression.spec import FeatureConfig, PipelineSpec, QualityLimits
-from aamcore.expression.svm import SVMExpressionClassifier, tune_svm
-from aamcore.expression.thesis_classifiers import ClassifierSpec, default_classifiers
+
+_THESIS = {"choose_n_components": "concentration", "concentration_study": "concentration",
+           "HypersphereMap": "hypersphere", "FisherMahalanobis": "lda",
+           "SVMExpressionClassifier": "svm", "tune_svm": "svm",
+           "ClassifierSpec": "thesis_classifiers", "default_classifiers": "thesis_classifiers"}
+"""The thesis's classifiers by name and module: scikit-learn's estimators, imported when
+first asked for, so that the pipeline starts without scikit-learn."""
+
+
+def __getattr__(name: str) -> object:
+    if name in _THESIS:
+        import importlib
+
+        return getattr(importlib.import_module(f"{__name__}.{_THESIS[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = [
     "AAMMismatchError",

@@ -13,7 +13,6 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 CALIBRATION_FOLDS = 10
 """Folds of held-out posers the temperature is fitted on: one poser each for JAFFE's ten
@@ -42,6 +41,8 @@ def fit_temperature(scores: np.ndarray, truth: np.ndarray) -> float:
     truth : (n,) int array
         Column of each face's true class.
     """
+    from scipy.optimize import minimize_scalar  # training only: serving never imports it
+
     scores = np.asarray(scores, np.float64)
     truth = np.asarray(truth, int)
     if scores.ndim != 2 or len(scores) != len(truth) or not len(truth):

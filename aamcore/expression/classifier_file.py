@@ -8,12 +8,10 @@ A classifier file is one ``.npz`` archive. Its ``header`` entry holds UTF-8 JSON
      "temperature": 0.8, "absolute_temperature": 0.8, "has_absolute": true,
      "absolute_weight": 0.25, "fused_temperature": 1.0}
 
-and every other entry is a plain numeric array of the pure numpy predictor
-(:class:`~aamcore.expression.face_classifier.LinearModel`,
-:class:`~aamcore.expression.lda.MahalanobisModel` or :class:`~aamcore.expression.svm.SVMModel`)
-or the pipeline's shape template (``pipeline_template``), so the archive loads with
-``allow_pickle=False``. A relative pipeline's file also holds a person-independent
-:class:`~aamcore.expression.face_classifier.LinearModel` or
+and every other entry is a plain numeric array of the pure numpy predictor (a
+:mod:`~aamcore.expression.scores` model) or the pipeline's shape template
+(``pipeline_template``), so the archive loads with ``allow_pickle=False``. A relative
+pipeline's file also holds a person-independent ``LinearModel`` or
 :class:`~aamcore.expression.network.NetworkModel` of the absolute vectors (entries
 ``absolute_*``), which decides until the stream has a reference; once it has, the two
 models' log-probabilities are fused, the absolute one weighted by ``absolute_weight``
@@ -24,10 +22,9 @@ probabilities (:mod:`~aamcore.expression.calibration`), fitted on held-out peopl
 classified, relative to which reference, behind which quality gate. ``aam_fingerprint``
 names the fitting model whose fits the classifier was trained on: landmarks and appearance
 vectors of another model have another meaning, and :meth:`ExpressionClassifier.check_aam`
-refuses them. Refused at load, each with what to do: another format version (format 1
-classified raw appearance vectors and had no pipeline, 2 had no probabilities, 3 no fusion,
-4 no network), features of another :data:`~aamcore.expression.spec.FEATURE_VERSION`, a
-pipeline whose vectors do not fit the model.
+refuses them. Refused at load, each with what to do: another format version, features of
+another :data:`~aamcore.expression.spec.FEATURE_VERSION`, a pipeline whose vectors do not
+fit the model.
 """
 
 from __future__ import annotations
@@ -35,19 +32,21 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 import numpy as np
 
 from aamcore.expression.calibration import softmax
 from aamcore.expression.crop import N_LANDMARKS
-from aamcore.expression.face_classifier import FittedFaceClassifier, LinearModel
-from aamcore.expression.lda import FisherMahalanobis, MahalanobisModel
 from aamcore.expression.learning import Learned, fuse
 from aamcore.expression.network import NetworkModel, stored_model
+from aamcore.expression.scores import FittedFaceClassifier, LinearModel, thesis_model
 from aamcore.expression.spec import FEATURE_VERSION, PipelineSpec
-from aamcore.expression.svm import SVMExpressionClassifier, SVMModel
 from aamcore.io.versioned import checked_header, save_npz
+
+if TYPE_CHECKING:  # the thesis's models come with scikit-learn: imported where they are used
+    from aamcore.expression.lda import FisherMahalanobis, MahalanobisModel
+    from aamcore.expression.svm import SVMExpressionClassifier, SVMModel
 
 FORMAT_NAME = "aamtrack-expression-classifier"
 FORMAT_VERSION = 5
@@ -65,7 +64,7 @@ class AAMMismatchError(ValueError):
     """A classifier is used with fits of another fitting model than it was trained on."""
 
 
-Model = LinearModel | MahalanobisModel | SVMModel | NetworkModel
+Model: TypeAlias = "LinearModel | MahalanobisModel | SVMModel | NetworkModel"
 Absolute = LinearModel | NetworkModel
 
 
@@ -114,11 +113,11 @@ class ExpressionClassifier:
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise ValueError(f"unknown classifier kind {self.kind!r} (expected one of {KINDS})")
-        expected = {"linear": LinearModel, "lda_mahalanobis": MahalanobisModel,
-                    "network": NetworkModel}.get(self.kind, SVMModel)
+        expected = {"linear": LinearModel, "network": NetworkModel}.get(self.kind) \
+            or thesis_model(self.kind)
         if not isinstance(self.model, expected):
             raise ValueError(f"a {self.kind} classifier needs a {expected.__name__}")
-        if isinstance(self.model, MahalanobisModel):
+        if self.kind == "lda_mahalanobis":
             n_scores = len(self.model.centroids)
         else:
             n_scores = self.model.n_classes
@@ -186,16 +185,15 @@ class ExpressionClassifier:
                        fused_temperature=learned.fused_temperature)
 
     @classmethod
-    def from_estimator(
-        cls,
-        estimator: FisherMahalanobis | SVMExpressionClassifier,
-        aam_fingerprint: str,
-        pipeline: PipelineSpec,
-        info: dict[str, Any] | None = None,
-        temperature: float = 1.0,
-    ) -> ExpressionClassifier:
+    def from_estimator(cls, estimator: FisherMahalanobis | SVMExpressionClassifier,
+                       aam_fingerprint: str, pipeline: PipelineSpec,
+                       info: dict[str, Any] | None = None, temperature: float = 1.0
+                       ) -> ExpressionClassifier:
         """Wrap a fitted :class:`FisherMahalanobis` or :class:`SVMExpressionClassifier`
         (the thesis's classifiers) with the pipeline that makes its vectors."""
+        from aamcore.expression.lda import FisherMahalanobis
+        from aamcore.expression.svm import SVMExpressionClassifier
+
         if isinstance(estimator, FisherMahalanobis):
             kind = "lda_mahalanobis"
         elif isinstance(estimator, SVMExpressionClassifier):
@@ -356,9 +354,10 @@ class ExpressionClassifier:
             if kind in ("linear", "network"):
                 model: Model = stored_model(arrays)
             elif kind == "lda_mahalanobis":
-                model = MahalanobisModel.from_arrays(arrays)
+                model = thesis_model(kind).from_arrays(arrays)
             else:
-                model = SVMModel.from_arrays(arrays, kind.removeprefix("svm_"), len(names))
+                model = thesis_model(kind).from_arrays(arrays, kind.removeprefix("svm_"),
+                                                        len(names))
             classifier = cls(kind, names, header["aam_fingerprint"], model, pipeline,
                              header["info"], float(header["temperature"]),
                              stored_model(absolute) if absolute else None,

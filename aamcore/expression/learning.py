@@ -33,9 +33,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from aamcore.expression.calibration import class_biases, fit_temperature, softmax
-from aamcore.expression.face_classifier import FittedFaceClassifier, fit_logistic
 from aamcore.expression.network import fit_network
 from aamcore.expression.reference import poser_references
+from aamcore.expression.scores import FittedFaceClassifier
 
 NEUTRAL = "NE"
 """The class a stream's reference estimates."""
@@ -245,6 +245,8 @@ def learn(X: np.ndarray, y: np.ndarray, persons: np.ndarray, sets: np.ndarray,
           note: Callable[[str], None] | None = None) -> Learned:
     """The absolute and relative models of vectors X (n, d) of classes y, people ``persons``
     and expression sets ``sets`` (module docstring); ValueError with fewer than two classes."""
+    from aamcore.expression.face_classifier import fit_logistic  # serving reads Learned alone
+
     y = np.asarray(y).astype(str)
     if len(np.unique(y)) < 2:
         raise ValueError(f"two classes or more are needed to learn, got {sorted(set(y))}")

@@ -16,10 +16,14 @@ from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from aamcore.expression.face_classifier import BlockScaler, FittedFaceClassifier, LinearModel
+from aamcore.expression.scores import FittedFaceClassifier, LinearModel
+
+if TYPE_CHECKING:
+    from aamcore.expression.face_classifier import BlockScaler
 
 NETWORK_ARRAYS = ("mean", "scale", "hidden_coef", "hidden_intercept", "coef", "intercept")
 """The arrays of a stored :class:`NetworkModel`, by name."""
@@ -168,6 +172,8 @@ def _scaled(X: np.ndarray, y: np.ndarray, block_dims: Mapping[str, int],
     """The block scaler of X (n, d), its gain, the rows it scales (n, d) and their weights
     (n,): the classes weighted alike, times ``sample_weight``."""
     from sklearn.utils.class_weight import compute_sample_weight  # serving never imports it
+
+    from aamcore.expression.face_classifier import BlockScaler
 
     X = np.asarray(X, np.float64)
     scaler = BlockScaler(tuple(block_dims.items())).fit(X)
