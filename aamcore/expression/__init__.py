@@ -25,6 +25,8 @@ classifier of the model in use, cached). The thesis's classifiers:
 :mod:`aamcore.evaluation` (``expression_*``).
 """
 
+import importlib
+
 from aamcore.expression.analysis import analyse_face, face_problem
 from aamcore.expression.classifier_file import (
     AAMMismatchError,
@@ -48,8 +50,6 @@ first asked for, so that the pipeline starts without scikit-learn."""
 
 def __getattr__(name: str) -> object:
     if name in _THESIS:
-        import importlib
-
         return getattr(importlib.import_module(f"{__name__}.{_THESIS[name]}"), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 

@@ -40,9 +40,9 @@ from aamcore.expression.scores import FittedFaceClassifier
 NEUTRAL = "NE"
 """The class a stream's reference estimates."""
 THREADS = max(1, min(4, os.cpu_count() or 1))
-"""Threads that learn models at once (the out-of-fold models, and the seeds of a network
-within each): scikit-learn's solvers spend most of their time in numpy, which releases the
-GIL."""
+"""Threads that learn models at once (the out-of-fold models, or the seeds of the network
+learned from every face): scikit-learn's solvers spend most of their time in numpy, which
+releases the GIL."""
 LEARNERS = ("logistic", "network")
 """The person-independent models :class:`Recipe` may choose."""
 
@@ -254,17 +254,17 @@ def learn(X: np.ndarray, y: np.ndarray, persons: np.ndarray, sets: np.ndarray,
     weight, cells = recipe.weights_of(sets), recipe.absolute_weights(sets, y)
     every = np.ones(len(y), bool)
 
-    def absolute(rows: np.ndarray, start: FittedFaceClassifier | None = None
-                 ) -> FittedFaceClassifier:
+    def absolute(rows: np.ndarray, start: FittedFaceClassifier | None = None,
+                 threads: int = 1) -> FittedFaceClassifier:
         if recipe.learner == "network":
             return fit_network(X[rows], y[rows], dims, recipe.hidden, recipe.alpha,
                                recipe.epochs, sample_weight=cells[rows], seeds=recipe.seeds,
-                               threads=THREADS)
+                               threads=threads)
         return fit_logistic(X[rows], y[rows], dims, C=recipe.C, sample_weight=cells[rows],
                             start=start)
 
     say(f"the person-independent model ({recipe.learner}), on {len(y)} faces")
-    model = absolute(every)
+    model = absolute(every, threads=THREADS)  # the folds' models below run in threads
     scores = out_of_fold(lambda rows: absolute(rows, model), model.classes, X, y, persons,
                          recipe.folds)
     t_abs = _temperature(scores, y, model.classes)
