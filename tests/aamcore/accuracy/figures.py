@@ -52,14 +52,18 @@ class Recorded:
 # Measured with the test model of cascade seed 0 and of seed 2 (in brackets): 0.0588 (0.0592),
 # 0.652 (0.659), 0.034 (0.037), 0.429 (0.413), 0.0552 (0.0583). The tolerances are three to ten
 # times those spreads; a model trained with half the cascade's stages measured 0.0632.
-HELD_OUT_NME = Recorded("mean NME of the held-out slice from the Haar box", 0.0588, 0.004)
-OCCLUDED_FLAGGED = Recorded("share of the covered landmarks flagged", 0.6517, 0.04,
+# Recipe fitting v15 (a quarter of the cascade's samples read on a copy of their face with an
+# occluder drawn over it) measured 0.0605, 0.7133, 0.0244, 0.4516 and 0.0570 for the five
+# figures below, in their order (v14: 0.0588, 0.6517, 0.0335, 0.4560, 0.0552): the flags gain
+# beyond their tolerance, the clean faces' landmarks lose within theirs.
+HELD_OUT_NME = Recorded("mean NME of the held-out slice from the Haar box", 0.0605, 0.004)
+OCCLUDED_FLAGGED = Recorded("share of the covered landmarks flagged", 0.7133, 0.04,
                             lower_is_better=False)
-VISIBLE_FLAGGED = Recorded("share of the visible landmarks flagged beside an occluder", 0.0335,
+VISIBLE_FLAGGED = Recorded("share of the visible landmarks flagged beside an occluder", 0.0244,
                            0.015)
 # The held-out expressions: 0.4560 with the person-independent network of HOG, shape and
 # appearance (issue 46; main's logistic model of HOG and shape measured 0.4160 with the same
 # test model on that machine, 0.4286 recorded before).
-HELD_OUT_EXPRESSIONS = Recorded("share of the held-out people's faces labelled right", 0.4560,
+HELD_OUT_EXPRESSIONS = Recorded("share of the held-out people's faces labelled right", 0.4516,
                                 0.06, lower_is_better=False)
-TRACKED_NME = Recorded("mean NME of the tracked frames of two held-out faces", 0.0552, 0.01)
+TRACKED_NME = Recorded("mean NME of the tracked frames of two held-out faces", 0.0570, 0.01)

@@ -9,6 +9,8 @@ from aamcore.fitting.training.binary import (
     THRESHOLD,
     BinaryTrainConfig,
     coarse_samples,
+    occluded_copies,
+    on_occluded,
     restart_samples,
     tracking_samples,
 )
@@ -64,3 +66,27 @@ def test_restart_samples_start_from_the_mean_placed_near_the_truth(synthetic_tra
     truth_centres = samples.truths.mean(axis=1)
     shift = np.linalg.norm(samples.shapes.mean(axis=1) - truth_centres, axis=1)
     assert np.all(shift < 0.5 * np.ptp(samples.truths[..., 0], axis=1))
+
+
+def test_occluded_copies_cover_each_face_and_a_share_of_samples_reads_them(
+        synthetic_training_faces) -> None:
+    faces = synthetic_training_faces
+    copies = occluded_copies(faces, np.random.default_rng(0))
+    assert len(copies) == len(faces)
+    for face, copy in zip(faces, copies, strict=True):
+        assert copy.shape == face.grey.shape and copy.dtype == np.uint8
+        changed = np.argwhere(copy != face.grey)
+        assert len(changed), "every copy has an occluder drawn on it"
+        lo, hi = face.points.min(axis=0), face.points.max(axis=0)
+        centre = changed[:, ::-1].mean(axis=0)  # (x, y): the occluder lies on the face
+        assert np.all(centre > lo - 0.5 * (hi - lo)) and np.all(centre < hi + 0.5 * (hi - lo))
+    space = ShapeSpace.train(np.stack([f.points for f in faces]), 0.98, (0, 1))
+    samples = tracking_samples(space, faces, BinaryTrainConfig(track_starts=25),
+                               np.random.default_rng(1))
+    moved = on_occluded(samples, len(faces), 0.25, np.random.default_rng(2))
+    on_copy = moved.owners >= len(faces)
+    assert 0.15 < on_copy.mean() < 0.35
+    assert np.array_equal(np.where(on_copy, moved.owners - len(faces), moved.owners),
+                          samples.owners)  # each sample reads its own face's copy
+    assert moved.truths is samples.truths and moved.shapes is samples.shapes
+    assert on_occluded(samples, len(faces), 0.0, np.random.default_rng(2)) is samples
