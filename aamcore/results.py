@@ -57,10 +57,12 @@ EXPRESSION_REASONS: dict[str, str] = {
     "face too small": "the eyes are closer than the classifier can read",
     "face outside the frame": "too many landmarks beyond the frame",
     "head rolled": "the eye line tilted further than the classifier learned",
-    "face covered": "too many inner landmarks flagged occluded",
+    "face covered": "too many inner landmarks flagged occluded, or some flagged and the "
+                    "face's texture unlike its mirror image (a hand on one side)",
     "face blurred": "too little sharp texture around the eyes, nose and mouth (out of focus, "
                     "moving, or too few pixels)",
-    "face in profile or badly fitted": "the face's texture unlike its mirror image",
+    "face in profile or badly fitted": "the face's texture unlike its mirror image, no inner "
+                                       "landmark flagged occluded",
     "face in profile": "the head turned further than the classifier learned",
     "implausible landmarks": "a face shape unlike every face the classifier learned from "
                              "(a fit gone wrong)",

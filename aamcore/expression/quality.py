@@ -124,12 +124,10 @@ def landmark_gate(
     placed = _placement_problem(points, observation.image.shape, limits)
     if placed:
         return placed, None
-    flags = observation.occluded
-    if flags is not None:
-        covered = float(np.mean(flags[INNER_SLICE]))
-        if covered > limits.max_covered:
-            return (f"face covered: {100 * covered:.0f} % of the inner landmarks occluded "
-                    f"(at most {100 * limits.max_covered:g} %)"), None
+    covered = covered_share(observation.occluded)
+    if covered > limits.max_covered:
+        return (f"face covered: {100 * covered:.0f} % of the inner landmarks occluded "
+                f"(at most {100 * limits.max_covered:g} %)"), None
     shape = canonical_shape(points)
     yaw = yaw_of_canonical(shape)
     if abs(yaw) > limits.max_yaw_deg:
@@ -144,10 +142,24 @@ def landmark_gate(
     return "", shape
 
 
-def symmetry_problem(symmetry: float, limits: QualityLimits = QualityLimits()) -> str:
-    """The reason to refuse a face of this mirror symmetry, or ``""``."""
+def covered_share(flags: np.ndarray | None) -> float:
+    """The share of the inner landmarks (brows, eyes, nose, mouth) a fit's occlusion
+    ``flags`` (68,) mark covered; 0 without flags."""
+    return 0.0 if flags is None or len(flags) == 0 else float(np.mean(flags[INNER_SLICE]))
+
+
+def symmetry_problem(symmetry: float, limits: QualityLimits = QualityLimits(),
+                     covered: float = 0.0) -> str:
+    """The reason to refuse a face of this mirror symmetry, or ``""``: a face whose
+    landmarks passed as frontal and some of whose inner landmarks are flagged is
+    ``covered`` (a hand on one side is what makes it unlike its mirror), else it is turned
+    further than its landmarks say or badly fitted."""
     if symmetry >= limits.min_symmetry:
         return ""
+    if covered > 0:
+        return (f"face covered: {100 * covered:.0f} % of the inner landmarks occluded, and "
+                f"the face matches its mirror image {symmetry:.2f} (at least "
+                f"{limits.min_symmetry:g} for a frontal face)")
     return (f"face in profile or badly fitted: it matches its mirror image {symmetry:.2f} "
             f"(at least {limits.min_symmetry:g} for a frontal face)")
 

@@ -8,7 +8,7 @@ import pytest
 
 from aamcore.expression.analysis import analyse_face, face_problem, feature_vector, observe
 from aamcore.expression.crop import FaceFeatureError, FaceObservation, transform_points
-from aamcore.expression.spec import FeatureConfig
+from aamcore.expression.spec import FeatureConfig, QualityLimits
 from tests.aamcore.expression.synthetic_faces import observation
 
 ALL = FeatureConfig(blocks=("hog", "shape", "appearance"))
@@ -46,6 +46,10 @@ def test_refused_faces_have_a_reason_and_no_blocks() -> None:
     problem, blocks = analyse_face(one_sided, ALL)
     assert problem.startswith("face in profile or badly fitted") and blocks is None
     assert face_problem(one_sided) == problem and face_problem(obs) == ""
+    flags = obs.landmarks[:, 0] > 160  # the landmarks under the noise, flagged as a fit flags them
+    flagged = FaceObservation.from_arrays(half, obs.landmarks, None, occluded=flags)
+    why, blocks = analyse_face(flagged, ALL, QualityLimits(max_covered=1.0))
+    assert why.startswith("face covered") and "mirror image" in why and blocks is None
     bad = FaceObservation.from_arrays(obs.image, obs.landmarks[:51], None)
     assert face_problem(bad).startswith("unusable landmarks")
     with pytest.raises(FaceFeatureError, match=r"68 iBUG landmarks"):
