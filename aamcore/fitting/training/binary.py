@@ -220,14 +220,14 @@ def occluded_copies(faces: Sequence[TrainingFace], rng: np.random.Generator
     return copies
 
 
-def on_occluded(samples: Samples, n_faces: int, share: float, rng: np.random.Generator
-                ) -> Samples:
-    """``samples`` with a ``share`` of them read on their face's occluded copy (image
-    ``owner + n_faces``)."""
+def on_occluded(owners: np.ndarray, n_faces: int, share: float, rng: np.random.Generator
+                ) -> np.ndarray:
+    """The images (S,) the samples of ``owners`` (S,) read: a ``share`` of them their face's
+    occluded copy (image ``owner + n_faces``), the others their face."""
     if share <= 0:
-        return samples
-    moved = rng.random(len(samples.owners)) < share
-    return replace(samples, owners=np.where(moved, samples.owners + n_faces, samples.owners))
+        return owners
+    moved = rng.random(len(owners)) < share
+    return np.where(moved, owners + n_faces, owners)
 
 
 def quality_stage_of(space: ShapeSpace, faces: Sequence[TrainingFace],
@@ -239,8 +239,8 @@ def quality_stage_of(space: ShapeSpace, faces: Sequence[TrainingFace],
     owners, shapes, nme = quality_samples(space, truths, config.quality, rng)
     greys = [f.grey for f in faces] + list(occluded)
     if occluded:
-        owners = on_occluded(Samples(owners, shapes, shapes), len(faces), config.occluded,
-                             np.random.default_rng(config.seed + 9)).owners
+        owners = on_occluded(owners, len(faces), config.occluded,
+                             np.random.default_rng(config.seed + 9))
     if no_faces:
         sizes = [(g.shape[1], g.shape[0]) for g in no_faces]
         nf_owners, nf_shapes = placed_on_no_face(space, sizes, config.quality.per_no_face, rng)
@@ -281,7 +281,8 @@ def train_binary_cascade(
     moving = np.random.default_rng(config.seed + 8)
 
     def some_occluded(samples: Samples) -> Samples:
-        return on_occluded(samples, len(faces), config.occluded, moving)
+        return replace(samples, owners=on_occluded(samples.owners, len(faces), config.occluded,
+                                                   moving))
 
     samples, report = coarse_samples(space, faces, config, rng)
     greys = [f.grey for f in faces] + occluded

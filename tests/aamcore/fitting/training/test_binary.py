@@ -83,10 +83,10 @@ def test_occluded_copies_cover_each_face_and_a_share_of_samples_reads_them(
     space = ShapeSpace.train(np.stack([f.points for f in faces]), 0.98, (0, 1))
     samples = tracking_samples(space, faces, BinaryTrainConfig(track_starts=25),
                                np.random.default_rng(1))
-    moved = on_occluded(samples, len(faces), 0.25, np.random.default_rng(2))
-    on_copy = moved.owners >= len(faces)
+    moved = on_occluded(samples.owners, len(faces), 0.25, np.random.default_rng(2))
+    on_copy = moved >= len(faces)
     assert 0.15 < on_copy.mean() < 0.35
-    assert np.array_equal(np.where(on_copy, moved.owners - len(faces), moved.owners),
+    assert np.array_equal(np.where(on_copy, moved - len(faces), moved),
                           samples.owners)  # each sample reads its own face's copy
-    assert moved.truths is samples.truths and moved.shapes is samples.shapes
-    assert on_occluded(samples, len(faces), 0.0, np.random.default_rng(2)) is samples
+    assert on_occluded(samples.owners, len(faces), 0.0, np.random.default_rng(2)) is (
+        samples.owners)
