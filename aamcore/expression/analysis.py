@@ -24,13 +24,7 @@ from aamcore.expression.crop import (
     check_landmarks,
 )
 from aamcore.expression.hog_patches import hog_block, hog_pair, patch_symmetry
-from aamcore.expression.quality import (
-    blur_problem,
-    covered_share,
-    landmark_gate,
-    sharpness,
-    symmetry_problem,
-)
+from aamcore.expression.quality import blur_problem, landmark_gate, sharpness, symmetry_problem
 from aamcore.expression.spec import FeatureConfig, QualityLimits
 
 Blocks = dict[str, np.ndarray]
@@ -90,7 +84,7 @@ def analyse_face(
     problem, hog = "", None
     if check or "hog" in config.blocks:
         problem, hog = _hog(observation.image, points, config, limits if check else None,
-                            learn_blurred, covered_share(observation.occluded))
+                            learn_blurred, observation.occluded)
         if hog is None:
             return problem, None
     return problem, _blocks(config.blocks, hog, shape, points, observation.appearance,
@@ -116,10 +110,10 @@ def _blocks(names: tuple[str, ...], hog: np.ndarray | None, shape: np.ndarray | 
 
 
 def _hog(image: np.ndarray, points: np.ndarray, config: FeatureConfig,
-         limits: QualityLimits | None, learn_blurred: bool = False, covered: float = 0.0
-         ) -> tuple[str, np.ndarray | None]:
+         limits: QualityLimits | None, learn_blurred: bool = False,
+         flags: np.ndarray | None = None) -> tuple[str, np.ndarray | None]:
     """With ``limits``, the gate's verdict on the face's sharpness, then its mirror symmetry
-    (``""``: none checked or it passes; ``covered`` the share of inner landmarks flagged),
+    (``""``: none checked or it passes; ``flags`` the fit's occlusion flags name a covered one),
     and the HOG block (P * cells^2 * bins,) of its canonical crop: None for a refused face
     (but a blurred one with ``learn_blurred``)."""
     crop, crop_points = aligned_face(image, points, config.crop_size, config.eye_distance,
@@ -132,7 +126,7 @@ def _hog(image: np.ndarray, points: np.ndarray, config: FeatureConfig,
         return blurred, None
     own, mirrored = hog_pair(equalised, crop_points, config)
     symmetry = symmetry_problem(patch_symmetry(own, mirrored, len(config.hog_points)), limits,
-                                covered)
+                                flags)
     if symmetry:
         return blurred or symmetry, None
     return blurred, own if config.equalise else hog_block(crop, crop_points, config)

@@ -149,13 +149,14 @@ def covered_share(flags: np.ndarray | None) -> float:
 
 
 def symmetry_problem(symmetry: float, limits: QualityLimits = QualityLimits(),
-                     covered: float = 0.0) -> str:
+                     flags: np.ndarray | None = None) -> str:
     """The reason to refuse a face of this mirror symmetry, or ``""``: a face whose
-    landmarks passed as frontal and some of whose inner landmarks are flagged is
-    ``covered`` (a hand on one side is what makes it unlike its mirror), else it is turned
-    further than its landmarks say or badly fitted."""
+    landmarks passed as frontal and some of whose inner landmarks the fit's occlusion
+    ``flags`` (68,) mark is covered (a hand on one side is what makes it unlike its mirror),
+    else it is turned further than its landmarks say or badly fitted."""
     if symmetry >= limits.min_symmetry:
         return ""
+    covered = covered_share(flags)
     if covered > 0:
         return (f"face covered: {100 * covered:.0f} % of the inner landmarks occluded, and "
                 f"the face matches its mirror image {symmetry:.2f} (at least "

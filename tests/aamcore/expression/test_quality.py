@@ -77,9 +77,13 @@ def test_reasons_name_the_fitters_verdict_and_the_symmetry() -> None:
     assert symmetry_problem(0.9) == ""
     why = symmetry_problem(0.5)
     assert reason_key(why) == "face in profile or badly fitted" and "0.50" in why
-    covered = symmetry_problem(0.5, covered=0.08)
+    flags = np.zeros(68, bool)
+    flags[48:52] = True  # 4 of the 51 inner landmarks: a hand over a corner of the mouth
+    covered = symmetry_problem(0.5, flags=flags)
     assert reason_key(covered) == "face covered" and "8 %" in covered and "0.50" in covered
-    assert symmetry_problem(0.9, covered=0.08) == ""
+    assert symmetry_problem(0.9, flags=flags) == ""
+    assert reason_key(symmetry_problem(0.5, flags=np.zeros(68, bool))) == (
+        "face in profile or badly fitted")
     assert reason_key("no face") == "no face"
 
 
