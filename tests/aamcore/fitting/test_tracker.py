@@ -126,6 +126,19 @@ def test_a_lost_rolled_face_is_looked_for_at_its_last_roll(tracker: Tracker, fac
     assert any(back)  # its roll searched within 5 frames
 
 
+def test_a_face_lost_at_a_small_roll_is_found_rolled_the_other_way(tracker: Tracker, faces,
+                                                                  truth) -> None:
+    for k in range(6):  # the face turns to 20 degrees while tracked
+        frame, to_frame = turned(faces[k], 4.0 * k)
+        assert right(tracker.track(frame), to_frame.apply(truth[k])), k
+    assert 12.0 < np.degrees(tracker.roll) < 18.0
+    for _ in range(3):  # covered: lost
+        assert tracker.track(np.zeros_like(faces[0])) is None
+    back = [right(tracker.track(frame), to_frame.apply(truth[10 + k])) for k in range(5)
+            for frame, to_frame in [turned(faces[10 + k], -35.0)]]
+    assert any(back)  # it comes back rolled past Haar's reach the other way
+
+
 def test_a_face_moving_fast_is_held(tracker: Tracker, faces, truth) -> None:
     # 22 px a frame (about 0.4 of the eye distance): held only when the fit starts where the
     # face is going, not where it was.
