@@ -13,6 +13,9 @@ Measures, on the real data under ``AAMTRACK_DATA``:
    with a naive placement (mean shape scaled to the box width, centred), the
    landmark-box fallback and the thesis's centre-of-gravity start. The
    reference is the mean of the GPA-aligned training shapes.
+4. Haar's reach in roll: the share of the held-out LFPW photos found (a box holding the
+   landmarks' centre) in the photo turned by each angle, both ways, about that centre
+   (what :data:`aamcore.fitting.tracker.TURN_DEG` and ``SEARCH_DEG`` rest on).
 
 Run: ``python -m bench detection [--lfpw-limit N] [--ced out.png]``.
 """
@@ -34,6 +37,7 @@ from aamcore.detection.boxes import detect_all, landmark_box, match_detection
 from aamcore.detection.haar import HaarFaceDetector
 from aamcore.evaluation.fits import cog_start
 from aamcore.evaluation.metrics import nme, summarise
+from aamcore.fitting.upright import rotated_view
 from aamcore.io import AnnotatedSet, load_annotated_folder
 from aamcore.model.procrustes import generalised_procrustes
 from bench import options
@@ -213,6 +217,27 @@ def timing_table(detector: HaarFaceDetector, imm: AnnotatedSet, lfpw: AnnotatedS
     return worst
 
 
+ROLLS_DEG = (0, 10, 15, 20, 25, 30, 35)
+"""The turns of the roll-reach table, degrees."""
+
+
+def roll_reach(detector: HaarFaceDetector) -> dict[int, float]:
+    """Share of the held-out LFPW photos found turned by each of :data:`ROLLS_DEG`."""
+    from bench.bench_fit_lfpw import held_out_faces
+
+    found = dict.fromkeys(ROLLS_DEG, 0.0)
+    faces = held_out_faces("lfpw")
+    for face in faces:
+        image, centre = face.load_image(), np.asarray(face.points, np.float64).mean(axis=0)
+        for degrees in ROLLS_DEG:
+            for side in (1, -1):
+                view, to_view = rotated_view(image, np.radians(side * degrees), centre)
+                x, y = to_view.apply(centre[None])[0]
+                found[degrees] += 0.5 * any(bx < x < bx + w and by < y < by + h
+                                            for bx, by, w, h in detector.detect(view))
+    return {degrees: hits / len(faces) for degrees, hits in found.items()}
+
+
 def nme_table(name: str, errors: dict[str, list[float]]) -> None:
     print(f"\nStart NME on held-out {name} (before fitting)")
     print("| start | n | mean | median | std | > 0.08 | > 0.10 |")
@@ -254,6 +279,11 @@ def main(argv: list[str] | None = None) -> int:
         curves = {f"IMM {k}": imm_err[k] for k in shown}
         curves |= {f"LFPW {k}": lfpw_err[k] for k in shown}
         print(f"\nCED written to {save_ced_png(curves, args.ced, max_error=0.3)}")
+    reach = roll_reach(detector)
+    print("\nHaar's reach in roll: held-out LFPW photos found, turned both ways")
+    print("| turned by | " + " | ".join(f"{d} deg" for d in reach) + " |")
+    print("|---|" + "---|" * len(reach))
+    print("| found | " + " | ".join(f"{v:.0%}" for v in reach.values()) + " |")
 
     ok = DETECT_MS.check(worst_ms)
     for name in ("IMM", "LFPW"):

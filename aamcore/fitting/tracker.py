@@ -20,9 +20,10 @@ __all__ = ["DEFAULT_REFIT", "NEVER", "FaceDetector", "Refit", "Tracker", "fit_up
 TURN_DEG = 20.0
 """A lost face last seen rolled further than this is looked for in the frame turned by
 its roll as well as upright. Nearer upright the upright pass mostly finds it (Haar at the
-default settings found 87, 73 and 51 % of the held-out LFPW faces turned by 10, 15 and 20
-degrees), so the turned pass looks further out, to either side in turn: a face lost at a
-small roll that comes back rolled the other way (under a hand, say) is found there."""
+default settings finds 87, 73 and 51 % of the held-out LFPW faces turned by 10, 15 and 20
+degrees: ``python -m bench detection``, its roll-reach table), so the turned pass looks
+further out, to either side in turn: a face lost at a small roll that comes back rolled
+the other way (under a hand, say) is found there."""
 MOVING = 0.03
 """A face whose centre moved more than this share of its width between two frames is
 tracked from where that motion takes it; a smaller move is mostly the fits' own jitter,
